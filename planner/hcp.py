@@ -1,0 +1,339 @@
+"""Hybrid conditional planning: a DAG of sequential plans over every outcome.
+
+The builder asks for an optimal sequential plan from the start state (the
+solver picks the outcome of each nondeterministic action), then plans again
+from the state after every other outcome, until every leaf is a goal. Each
+distinct state is planned once, so the plan is a DAG. Solves run in worker
+processes, each holding its own grounded program (ground once, solve many).
+An outcome from which the goal cannot be reached bans the action that led to
+it and plans its parent again; a dead end at the start state is reported.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+
+from planner.encoding import FeasibilityContext
+from planner.solver import BranchSolver, State
+
+MAX_HORIZON_FACTOR = 4
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What a worker needs to ground the domain: facts and feasibility answers."""
+
+    facts: tuple[str, ...]
+    reachable: frozenset[tuple[str, str]]
+    horizon: int
+    skip: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class PlannedStep:
+    state: State
+    action: str
+    kind: str
+    chosen: str | None
+    outcomes: tuple[tuple[str | None, State], ...]
+
+
+@dataclass(frozen=True)
+class BranchResult:
+    """A sequential plan from `start` (empty: `start` is a goal), or None: dead end."""
+
+    start: State
+    steps: tuple[PlannedStep, ...] | None
+    horizon: int
+    solve_s: float
+    checks: int
+
+
+@dataclass
+class DagNode:
+    state: State
+    action: str | None = None
+    kind: str | None = None
+    children: list[tuple[str | None, State]] = field(default_factory=list)
+    expected: str | None = None  # the outcome the sequential plan hoped for
+    forbidden: set[str] = field(default_factory=set)
+    goal: bool = False
+
+
+class DeadEnd(Exception):
+    """No conditional plan: the start state cannot reach the goal under every outcome."""
+
+
+@dataclass
+class Progress:
+    done: int
+    open: int
+    solves: int
+    elapsed_s: float
+
+
+# --- worker side -----------------------------------------------------------
+
+_worker: _BranchPlanner | None = None
+
+
+class _BranchPlanner:
+    """Per-process solvers, one per horizon, grounded when first needed."""
+
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
+        self.context = FeasibilityContext(lambda m, p: (m, p) in problem.reachable)
+        self.solvers: dict[int, BranchSolver] = {}
+
+    def solver(self, horizon: int) -> BranchSolver:
+        if horizon not in self.solvers:
+            self.solvers[horizon] = BranchSolver(
+                self.problem.facts, horizon, self.context, skip=self.problem.skip
+            )
+        return self.solvers[horizon]
+
+    def branch(self, start: State, forbid: frozenset[str]) -> BranchResult:
+        t0 = time.perf_counter()
+        calls0 = self.context.calls
+        horizon = self.problem.horizon
+        steps = None
+        # A branch that needs more steps than the default horizon is retried
+        # with a longer one before it is called a dead end.
+        while steps is None and horizon <= self.problem.horizon * MAX_HORIZON_FACTOR:
+            steps = self.solver(horizon).plan(start, forbid)
+            if steps is None:
+                horizon *= 2
+        planned = None
+        if steps is not None:
+            solver = self.solver(self.problem.horizon)
+            planned = tuple(
+                PlannedStep(
+                    s.state,
+                    s.action,
+                    s.kind,
+                    s.outcome,
+                    tuple((o.label, o.state) for o in solver.outcomes(s.state, s.action)),
+                )
+                for s in steps
+            )
+        return BranchResult(
+            start, planned, horizon, time.perf_counter() - t0, self.context.calls - calls0
+        )
+
+
+def _init_worker(problem: Problem) -> None:
+    global _worker
+    _worker = _BranchPlanner(problem)
+
+
+def _run_branch(start: State, forbid: frozenset[str]) -> BranchResult:
+    assert _worker is not None
+    return _worker.branch(start, forbid)
+
+
+# --- coordinator -------------------------------------------------------------
+
+
+class ConditionalPlanner:
+    """Builds the plan DAG; `progress` is called after each branch, `cancel()` stops."""
+
+    def __init__(
+        self,
+        problem: Problem,
+        goal_pairs: Iterable[tuple[str, str]],
+        *,
+        workers: int = 0,
+        progress: Callable[[Progress], None] | None = None,
+        on_first_branch: Callable[[dict[State, DagNode]], None] | None = None,
+    ) -> None:
+        self.problem = problem
+        self.goal_pairs = tuple(goal_pairs)
+        self.workers = workers or mp.cpu_count()
+        self.progress = progress
+        self.on_first_branch = on_first_branch
+        self.nodes: dict[State, DagNode] = {}
+        self.parents: dict[State, set[State]] = {}
+        self.dead_ends: list[str] = []
+        self.solves = 0
+        self.solve_s = 0.0
+        self.checks = 0
+        self._cancel = threading.Event()
+
+    def cancel(self) -> None:
+        self._cancel.set()
+
+    @property
+    def cancelled(self) -> bool:
+        return self._cancel.is_set()
+
+    def is_goal(self, state: State) -> bool:
+        # Mirrors goal.lp so goal leaves need no solve.
+        attached = {tuple(f[len("attached(") : -1].split(",")[:2]) for f in state
+                    if f.startswith("attached(")}
+        busy = any(f.startswith(("holding(", "wantToAttach(", "acceptToAttach(",
+                                 "requestedAttach(")) for f in state)
+        return not busy and all(pair in attached for pair in self.goal_pairs)
+
+    def build(self, root: State) -> State:
+        """Plan from `root`; returns it (the DAG is in `self.nodes`)."""
+        t0 = time.perf_counter()
+        self._node(root)
+        queue: deque[State] = deque([root])
+        pending: dict[Future[BranchResult], State] = {}
+        first_done = False
+        executor = self._executor()
+        try:
+            while (queue or pending) and not self.cancelled:
+                while queue and len(pending) < 2 * self.workers:
+                    state = queue.popleft()
+                    node = self.nodes.get(state)
+                    if node is None or node.action is not None or node.goal:
+                        continue
+                    if state in pending.values():
+                        continue
+                    pending[executor(state, frozenset(node.forbidden))] = state
+                done, _ = wait(list(pending), return_when=FIRST_COMPLETED, timeout=0.2)
+                for fut in done:
+                    del pending[fut]
+                    result = fut.result()
+                    self.solves += 1
+                    self.solve_s += result.solve_s
+                    self.checks += result.checks
+                    queue.extend(self._integrate(result, root))
+                    if not first_done and self.nodes[root].action is not None:
+                        first_done = True
+                        if self.on_first_branch:
+                            self.on_first_branch(self.nodes)
+                if self.progress:
+                    self.progress(self._progress(len(queue) + len(pending), t0))
+        finally:
+            self._shutdown()
+        if not self.cancelled:
+            self._prune(root)
+        return root
+
+    # -- execution backends
+    def _executor(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
+        if self.workers <= 1:
+            planner = _BranchPlanner(self.problem)
+
+            def inline(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
+                fut: Future[BranchResult] = Future()
+                fut.set_result(planner.branch(state, forbid))
+                return fut
+
+            self._pool: ProcessPoolExecutor | None = None
+            return inline
+        self._pool = ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=mp.get_context("fork"),
+            initializer=_init_worker,
+            initargs=(self.problem,),
+        )
+        pool = self._pool
+
+        def remote(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
+            return pool.submit(_run_branch, state, forbid)
+
+        return remote
+
+    def _shutdown(self) -> None:
+        if getattr(self, "_pool", None) is not None:
+            assert self._pool is not None
+            self._pool.shutdown(wait=True, cancel_futures=True)
+
+    # -- DAG maintenance
+    def _node(self, state: State) -> DagNode:
+        node = self.nodes.get(state)
+        if node is None:
+            node = self.nodes[state] = DagNode(state, goal=self.is_goal(state))
+            self.parents.setdefault(state, set())
+        return node
+
+    def _integrate(self, result: BranchResult, root: State) -> list[State]:
+        """Adds a branch to the DAG; returns states that now need a plan."""
+        start = self.nodes.get(result.start)
+        if start is None or start.action is not None:
+            return []  # planned meanwhile along another branch
+        if result.steps is None:
+            return self._dead_end(result.start, root, result.horizon)
+        todo: list[State] = []
+        for step in result.steps:
+            node = self._node(step.state)
+            if node.action is not None or node.goal:
+                break  # the rest of this branch is already planned
+            node.action, node.kind = step.action, step.kind
+            node.children = list(step.outcomes)
+            node.expected = step.chosen
+            for label, succ in step.outcomes:
+                child = self._node(succ)
+                self.parents[succ].add(step.state)
+                if label != step.chosen and child.action is None and not child.goal:
+                    todo.append(succ)
+        return todo
+
+    def _dead_end(self, state: State, root: State, horizon: int) -> list[State]:
+        """Bans the action that led here at every parent and plans those again."""
+        self.dead_ends.append(
+            f"no plan within {horizon} steps from state {{{', '.join(sorted(state))}}}"
+        )
+        if state == root:
+            raise DeadEnd(self.dead_ends[-1])
+        todo = []
+        for parent in list(self.parents.get(state, ())):
+            pnode = self.nodes[parent]
+            if pnode.action is None:
+                continue
+            pnode.forbidden.add(pnode.action)
+            for _, succ in pnode.children:
+                self.parents[succ].discard(parent)
+            pnode.action, pnode.kind, pnode.children, pnode.expected = None, None, [], None
+            todo.append(parent)
+        return todo
+
+    def _prune(self, root: State) -> None:
+        """Drops nodes no longer reachable (after dead ends) and checks for cycles."""
+        seen: set[State] = set()
+        stack = [root]
+        while stack:
+            state = stack.pop()
+            if state in seen:
+                continue
+            seen.add(state)
+            node = self.nodes[state]
+            if node.action is None and not node.goal:
+                raise DeadEnd(f"state left unplanned: {{{', '.join(sorted(state))}}}")
+            stack.extend(succ for _, succ in node.children)
+        self.nodes = {s: n for s, n in self.nodes.items() if s in seen}
+        _assert_acyclic(self.nodes, root)
+
+    def _progress(self, open_count: int, t0: float) -> Progress:
+        done = sum(1 for n in self.nodes.values() if n.action is not None or n.goal)
+        return Progress(done, open_count, self.solves, time.perf_counter() - t0)
+
+
+def _assert_acyclic(nodes: dict[State, DagNode], root: State) -> None:
+    colour: dict[State, int] = {}
+    stack: list[tuple[State, int]] = [(root, 0)]
+    while stack:
+        state, i = stack.pop()
+        children = nodes[state].children
+        if i == 0:
+            if colour.get(state) == 2:
+                continue
+            colour[state] = 1
+        if i < len(children):
+            stack.append((state, i + 1))
+            succ = children[i][1]
+            if colour.get(succ) == 1:
+                raise DeadEnd(f"the plan loops back to state {{{', '.join(sorted(succ))}}}")
+            if colour.get(succ) != 2:
+                stack.append((succ, 0))
+        else:
+            colour[state] = 2

@@ -1,0 +1,160 @@
+"""Multi-shot solving: ground the domain once, then plan from any state.
+
+A `BranchSolver` holds two grounded programs: the planning program (horizon
+H, goal and preferences) and the one-step transition program (no goal) used
+to list every outcome of an action. States are passed as assumptions on the
+`init/1` externals, so no branch is ever grounded again.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+import clingo
+
+from planner.encoding import FeasibilityContext, ground
+
+State = frozenset[str]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One action of a sequential plan, in the state before it."""
+
+    state: State
+    action: str
+    kind: str
+    outcome: str | None  # the outcome the solver chose; None if deterministic
+
+
+@dataclass(frozen=True)
+class Outcome:
+    label: str | None
+    state: State
+
+
+@dataclass
+class SolverStats:
+    solves: int = 0
+    transitions: int = 0
+    solve_s: float = 0.0
+    ground_s: float = 0.0
+
+
+@dataclass
+class BranchSolver:
+    facts: Sequence[str]
+    horizon: int
+    context: FeasibilityContext
+    skip: tuple[str, ...] = ()
+    options: tuple[str, ...] = ()
+    stats: SolverStats = field(default_factory=SolverStats)
+
+    def __post_init__(self) -> None:
+        t0 = time.perf_counter()
+        self._plan_ctl = ground(
+            self.facts, self.horizon, self.context, skip=self.skip, options=self.options
+        )
+        step_skip = tuple(sorted({*self.skip, "goal", "preferences"}))
+        self._step_ctl = ground(self.facts, 1, self.context, skip=step_skip)
+        self._step_ctl.configuration.solve.models = 0  # type: ignore[union-attr]
+        self._fluents = _externals(self._plan_ctl, "init")
+        self._step_fluents = _externals(self._step_ctl, "init")
+        self._forbid = {str(s.arguments[0]): s for s in _externals(self._plan_ctl, "forbid").values()}
+        self._kinds = _kinds(self._plan_ctl)
+        # Externals left open so that assumptions alone set the start state;
+        # an external fixed to false would make an assumption of true UNSAT.
+        for ctl, syms in (
+            (self._plan_ctl, [*self._fluents.values(), *self._forbid.values()]),
+            (self._step_ctl, list(self._step_fluents.values())),
+        ):
+            for sym in syms:
+                ctl.assign_external(sym, None)
+        self.stats.ground_s += time.perf_counter() - t0
+
+    def kind(self, action: str) -> str:
+        return self._kinds[action]
+
+    def plan(self, state: State, forbid: Iterable[str] = ()) -> list[Step] | None:
+        """An optimal sequential plan from `state` (outcomes chosen by the solver), or None."""
+        assumptions = _assume(self._fluents, state)
+        banned = set(forbid)
+        assumptions.extend((sym, action in banned) for action, sym in self._forbid.items())
+        best: list[clingo.Symbol] = []
+
+        def on_model(model: clingo.Model) -> None:
+            best[:] = model.symbols(shown=True)
+
+        t0 = time.perf_counter()
+        result = self._plan_ctl.solve(assumptions=assumptions, on_model=on_model)
+        self.stats.solve_s += time.perf_counter() - t0
+        self.stats.solves += 1
+        if not result.satisfiable:
+            return None
+        return self._steps(best)
+
+    def outcomes(self, state: State, action: str) -> list[Outcome]:
+        """Every outcome of `action` in `state` and the state after it."""
+        assumptions = _assume(self._step_fluents, state)
+        assumptions.append((clingo.Function("occ", [clingo.parse_term(action), clingo.Number(0)]), True))
+        found: list[Outcome] = []
+
+        def on_model(model: clingo.Model) -> None:
+            label: str | None = None
+            after: set[str] = set()
+            for sym in model.symbols(shown=True):
+                if sym.name == "out":
+                    label = str(sym.arguments[1])
+                elif sym.name == "h" and sym.arguments[1].number == 1:
+                    after.add(str(sym.arguments[0]))
+            found.append(Outcome(label, frozenset(after)))
+
+        t0 = time.perf_counter()
+        self._step_ctl.solve(assumptions=assumptions, on_model=on_model)
+        self.stats.solve_s += time.perf_counter() - t0
+        self.stats.transitions += 1
+        found.sort(key=lambda o: (o.label is None, o.label or ""))
+        return found
+
+    def _steps(self, symbols: Sequence[clingo.Symbol]) -> list[Step]:
+        states: dict[int, set[str]] = {}
+        actions: dict[int, str] = {}
+        chosen: dict[int, str] = {}
+        for sym in symbols:
+            if sym.name == "h":
+                states.setdefault(sym.arguments[1].number, set()).add(str(sym.arguments[0]))
+            elif sym.name == "occ":
+                actions[sym.arguments[1].number] = str(sym.arguments[0])
+            elif sym.name == "out":
+                chosen[sym.arguments[2].number] = str(sym.arguments[1])
+        steps = []
+        for t in sorted(actions):
+            action = actions[t]
+            steps.append(
+                Step(frozenset(states.get(t, set())), action, self._kinds[action], chosen.get(t))
+            )
+        return steps
+
+
+def _externals(ctl: clingo.Control, name: str) -> dict[str, clingo.Symbol]:
+    out = {}
+    for atom in ctl.symbolic_atoms.by_signature(name, 1):
+        if atom.is_external:
+            out[str(atom.symbol.arguments[0])] = atom.symbol
+    return out
+
+
+def _kinds(ctl: clingo.Control) -> dict[str, str]:
+    return {
+        str(a.symbol.arguments[0]): a.symbol.arguments[1].name
+        for a in ctl.symbolic_atoms.by_signature("kind", 2)
+    }
+
+
+def _assume(fluents: dict[str, clingo.Symbol], state: State) -> list[tuple[clingo.Symbol, bool]]:
+    unknown = state - fluents.keys()
+    if unknown:
+        raise ValueError(f"state has fluents the domain does not know: {sorted(unknown)}")
+    return [(sym, name in state) for name, sym in fluents.items()]
