@@ -1,0 +1,1 @@
+"""Tandem application layer: wires perception, speech and the planner together."""

@@ -1,0 +1,1 @@
+"""Perception: locating parts on the bench (fiducial markers, geometry)."""

@@ -1,0 +1,1 @@
+"""Tandem planner: scenarios, the ASP domain and the hybrid conditional planner."""

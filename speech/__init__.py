@@ -1,0 +1,1 @@
+"""Speech: the robot's side of the dialogue with the human teammate."""
