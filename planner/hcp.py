@@ -271,10 +271,13 @@ class ConditionalPlanner:
             node.action, node.kind = step.action, step.kind
             node.children = list(step.outcomes)
             node.expected = step.chosen
+            last = step is result.steps[-1]
             for label, succ in step.outcomes:
                 child = self._node(succ)
                 self.parents[succ].add(step.state)
-                if label != step.chosen and child.action is None and not child.goal:
+                # Other outcomes need plans of their own; so does the end of
+                # this branch when it stopped at a milestone short of the goal.
+                if (label != step.chosen or last) and child.action is None and not child.goal:
                     todo.append(succ)
         return todo
 
