@@ -13,13 +13,15 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
-from planner import cli_scenario
+from planner import cli_plan, cli_scenario
 from planner.scenario import ScenarioError
 
 Register = Callable[[argparse.ArgumentParser], None]
 
 SUBCOMMANDS: list[tuple[str, str, Register]] = [
     ("scenario", "validate scenario files", cli_scenario.register),
+    ("plan", "plan every contingency of a scenario", cli_plan.register_plan),
+    ("check", "audit a plan file by re-simulating every branch", cli_plan.register_check),
 ]
 
 

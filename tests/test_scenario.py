@@ -95,6 +95,7 @@ DEFAULT_FACTS = sorted(
         "goal(leg2,top)",
         "humanReach(humanOnly)",
         "humanReach(shared)",
+        "initiative(1)",
         "loc(foot1,shared)",
         "loc(foot2,shared)",
         "loc(leg1,robotOnly)",

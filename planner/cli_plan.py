@@ -1,0 +1,83 @@
+"""`tandem plan SCENARIO` and `tandem check PLAN.json`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from planner.audit import audit, format_report
+from planner.hcp import DeadEnd, Progress
+from planner.plan import TABLE_HEADER, Plan, format_table, stats_row
+from planner.planning import plan_scenario
+from planner.scenario import load_scenario
+
+
+def register_plan(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", help="scenario file (TOML)")
+    parser.add_argument("-o", "--output", help="write the tandem-plan/1 JSON here")
+    parser.add_argument("--dot", help="write the plan tree as Graphviz DOT here")
+    parser.add_argument("--workers", type=int, default=0, help="worker processes (0: all cores)")
+    parser.add_argument(
+        "--first-branch", action="store_true", help="print the branch the robot expects"
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress line")
+    parser.set_defaults(run=run_plan)
+
+
+def register_check(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("plan", help="a tandem-plan/1 JSON file")
+    parser.set_defaults(run=run_check)
+
+
+def _progress_line(p: Progress) -> None:
+    total = p.done + p.open
+    width = 30
+    filled = int(width * p.done / total) if total else width
+    bar = "#" * filled + "." * (width - filled)
+    print(f"\r[{bar}] {p.done} nodes planned, {p.open} open, {p.elapsed_s:.1f} s",
+          end="", file=sys.stderr, flush=True)
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    scenario = load_scenario(args.scenario)
+    progress = None if args.quiet or not sys.stderr.isatty() else _progress_line
+    try:
+        result = plan_scenario(scenario, workers=args.workers, progress=progress)
+    except DeadEnd as err:
+        print(f"{args.scenario}: no plan: {err}", file=sys.stderr)
+        return 1
+    finally:
+        if progress:
+            print(file=sys.stderr)
+    plan = result.plan
+    if args.output:
+        plan.write(args.output)
+    if args.dot:
+        Path(args.dot).write_text(plan.dot())
+    print(f"{scenario.name}: plan with {plan.stats['dag_nodes']} distinct nodes "
+          f"(first branch after {result.first_branch_s:.2f} s)")
+    print(format_table(TABLE_HEADER, [stats_row(scenario.name, plan.stats)]))
+    if args.first_branch:
+        print("\nFirst branch (the outcomes the robot hopes for):")
+        for i, (action, outcome) in enumerate(plan.first_branch(), 1):
+            print(f"  {i:2d}. {action}" + (f"  -> {outcome}" if outcome is not None else ""))
+    return 0
+
+
+def run_check(args: argparse.Namespace) -> int:
+    try:
+        doc = json.loads(Path(args.plan).read_text())
+    except (OSError, json.JSONDecodeError) as err:
+        print(f"{args.plan}: cannot read plan: {err}", file=sys.stderr)
+        return 2
+    if not isinstance(doc, dict):
+        print(f"{args.plan}: not a tandem-plan/1 document", file=sys.stderr)
+        return 2
+    violations = audit(doc)
+    print(f"{args.plan}: {format_report(violations)}")
+    return 1 if violations else 0
+
+
+__all__ = ["Plan", "register_check", "register_plan"]
