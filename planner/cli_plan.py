@@ -36,8 +36,12 @@ def _progress_line(p: Progress) -> None:
     width = 30
     filled = int(width * p.done / total) if total else width
     bar = "#" * filled + "." * (width - filled)
-    print(f"\r[{bar}] {p.done} nodes planned, {p.open} open, {p.elapsed_s:.1f} s",
-          end="", file=sys.stderr, flush=True)
+    print(
+        f"\r[{bar}] {p.done} nodes planned, {p.open} open, {p.elapsed_s:.1f} s",
+        end="",
+        file=sys.stderr,
+        flush=True,
+    )
 
 
 def run_plan(args: argparse.Namespace) -> int:
@@ -56,8 +60,10 @@ def run_plan(args: argparse.Namespace) -> int:
         plan.write(args.output)
     if args.dot:
         Path(args.dot).write_text(plan.dot())
-    print(f"{scenario.name}: plan with {plan.stats['dag_nodes']} distinct nodes "
-          f"(first branch after {result.first_branch_s:.2f} s)")
+    print(
+        f"{scenario.name}: plan with {plan.stats['dag_nodes']} distinct nodes "
+        f"(first branch after {result.first_branch_s:.2f} s)"
+    )
     print(format_table(TABLE_HEADER, [stats_row(scenario.name, plan.stats)]))
     if args.first_branch:
         print("\nFirst branch (the outcomes the robot hopes for):")

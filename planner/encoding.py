@@ -27,9 +27,7 @@ def program_text(skip: Iterable[str] = ()) -> str:
     if unknown:
         raise ValueError(f"unknown concern(s): {', '.join(sorted(unknown))}")
     base = resources.files("planner") / "asp"
-    return "\n".join(
-        (base / f"{name}.lp").read_text() for name in CONCERNS if name not in skipped
-    )
+    return "\n".join((base / f"{name}.lp").read_text() for name in CONCERNS if name not in skipped)
 
 
 class FeasibilityContext:

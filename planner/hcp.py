@@ -174,10 +174,15 @@ class ConditionalPlanner:
 
     def is_goal(self, state: State) -> bool:
         # Mirrors goal.lp so goal leaves need no solve.
-        attached = {tuple(f[len("attached(") : -1].split(",")[:2]) for f in state
-                    if f.startswith("attached(")}
-        busy = any(f.startswith(("holding(", "wantToAttach(", "acceptToAttach(",
-                                 "requestedAttach(")) for f in state)
+        attached = {
+            tuple(f[len("attached(") : -1].split(",")[:2])
+            for f in state
+            if f.startswith("attached(")
+        }
+        busy = any(
+            f.startswith(("holding(", "wantToAttach(", "acceptToAttach(", "requestedAttach("))
+            for f in state
+        )
         return not busy and all(pair in attached for pair in self.goal_pairs)
 
     def build(self, root: State) -> State:

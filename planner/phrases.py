@@ -39,19 +39,27 @@ def why(action: str, state: frozenset[str], facts: frozenset[str]) -> str:
     p = args[0]
     region = next((f[len(f"loc({p},") : -1] for f in facts if f.startswith(f"loc({p},")), "?")
     if name == "confirmAttach":
-        return (f"The human holds {p}, which the final configuration attaches to {args[1]}; "
-                "knowing their intention avoids working on the same part.")
+        return (
+            f"The human holds {p}, which the final configuration attaches to {args[1]}; "
+            "knowing their intention avoids working on the same part."
+        )
     if name == "askHelp":
-        return (f"No arm can reach {p} in region {region} (reachability failed for every "
-                f"manipulator), and {p} is safe for the human to handle.")
+        return (
+            f"No arm can reach {p} in region {region} (reachability failed for every "
+            f"manipulator), and {p} is safe for the human to handle."
+        )
     if name == "offerHelp":
-        return (f"{p} is dangerous for the human to handle and an arm can reach it, "
-                "so the robot offers to do the attachment.")
+        return (
+            f"{p} is dangerous for the human to handle and an arm can reach it, "
+            "so the robot offers to do the attachment."
+        )
     if name == "requestToUnhold":
         if f"reserved({p})" in state:
             return f"The human said they will not attach {p}; the robot needs it or its place."
         return f"{p} in the human's hands blocks the next steps of the plan."
     if name == "requestToAttach":
-        return (f"No arm can reach {p} in region {region} and the human declined to help; "
-                "without it the table cannot be finished.")
+        return (
+            f"No arm can reach {p} in region {region} and the human declined to help; "
+            "without it the table cannot be finished."
+        )
     raise ValueError(f"not a communication action: {action}")

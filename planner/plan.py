@@ -64,7 +64,10 @@ class Plan:
             node_id = child["node"]
 
     def dot(self) -> str:
-        lines = ["digraph plan {", '  node [shape=box, style="rounded,filled", fontname=Helvetica];']
+        lines = [
+            "digraph plan {",
+            '  node [shape=box, style="rounded,filled", fontname=Helvetica];',
+        ]
         for node_id, node in self.nodes.items():
             label = node["action"] or "goal"
             colour = KIND_COLOURS[node["kind"]]
@@ -184,8 +187,21 @@ def _postorder(nodes: dict[str, dict[str, Any]], root: str) -> list[str]:
     return order
 
 
-TABLE_HEADER = ("instance", "L", "D=A+S+C", "K", "O", "C", "R", "DN", "BF", "N", "dag", "plan s",
-                "checks s")
+TABLE_HEADER = (
+    "instance",
+    "L",
+    "D=A+S+C",
+    "K",
+    "O",
+    "C",
+    "R",
+    "DN",
+    "BF",
+    "N",
+    "dag",
+    "plan s",
+    "checks s",
+)
 
 
 def stats_row(name: str, stats: dict[str, Any]) -> tuple[str, ...]:
@@ -208,7 +224,11 @@ def stats_row(name: str, stats: dict[str, Any]) -> tuple[str, ...]:
 
 def format_table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+
     def line(r: tuple[str, ...]) -> str:
-        return "  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths)))
+        return "  ".join(
+            c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True))
+        )
+
     sep = "-" * len(line(header))
     return "\n".join([line(header), sep, *(line(r) for r in rows)])

@@ -62,7 +62,9 @@ class BranchSolver:
         self._step_ctl.configuration.solve.models = 0  # type: ignore[union-attr]
         self._fluents = _externals(self._plan_ctl, "init")
         self._step_fluents = _externals(self._step_ctl, "init")
-        self._forbid = {str(s.arguments[0]): s for s in _externals(self._plan_ctl, "forbid").values()}
+        self._forbid = {
+            str(s.arguments[0]): s for s in _externals(self._plan_ctl, "forbid").values()
+        }
         self._kinds = _kinds(self._plan_ctl)
         # Externals left open so that assumptions alone set the start state;
         # an external fixed to false would make an assumption of true UNSAT.
@@ -98,7 +100,9 @@ class BranchSolver:
     def outcomes(self, state: State, action: str) -> list[Outcome]:
         """Every outcome of `action` in `state` and the state after it."""
         assumptions = _assume(self._step_fluents, state)
-        assumptions.append((clingo.Function("occ", [clingo.parse_term(action), clingo.Number(0)]), True))
+        assumptions.append(
+            (clingo.Function("occ", [clingo.parse_term(action), clingo.Number(0)]), True)
+        )
         found: list[Outcome] = []
 
         def on_model(model: clingo.Model) -> None:
