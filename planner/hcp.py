@@ -118,7 +118,10 @@ class _BranchPlanner:
                     s.action,
                     s.kind,
                     s.outcome,
-                    tuple((o.label, o.state) for o in solver.outcomes(s.state, s.action)),
+                    # Deterministic steps: the plan itself says what follows.
+                    ((None, s.after),)
+                    if s.outcome is None
+                    else tuple((o.label, o.state) for o in solver.outcomes(s.state, s.action)),
                 )
                 for s in steps
             )

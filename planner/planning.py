@@ -12,7 +12,7 @@ from planner.scenario import Scenario
 from planner.solver import State
 
 # Steps per milestone solve; a branch that needs more is retried with 2x, 4x.
-DEFAULT_HORIZON = 10
+DEFAULT_HORIZON = 8
 
 
 @dataclass

@@ -27,6 +27,7 @@ class Step:
     action: str
     kind: str
     outcome: str | None  # the outcome the solver chose; None if deterministic
+    after: State  # the state after the action, with that outcome
 
 
 @dataclass(frozen=True)
@@ -137,7 +138,13 @@ class BranchSolver:
         for t in sorted(actions):
             action = actions[t]
             steps.append(
-                Step(frozenset(states.get(t, set())), action, self._kinds[action], chosen.get(t))
+                Step(
+                    frozenset(states.get(t, set())),
+                    action,
+                    self._kinds[action],
+                    chosen.get(t),
+                    frozenset(states.get(t + 1, set())),
+                )
             )
         return steps
 
