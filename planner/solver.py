@@ -61,20 +61,13 @@ class BranchSolver:
         step_skip = tuple(sorted({*self.skip, "goal", "preferences"}))
         self._step_ctl = ground(self.facts, 1, self.context, skip=step_skip)
         self._step_ctl.configuration.solve.models = 0  # type: ignore[union-attr]
+        # Assumptions are passed as solver literals, looked up once: symbol
+        # assumptions cost a symbol-table lookup each on every solve.
         self._fluents = _externals(self._plan_ctl, "init")
         self._step_fluents = _externals(self._step_ctl, "init")
-        self._forbid = {
-            str(s.arguments[0]): s for s in _externals(self._plan_ctl, "forbid").values()
-        }
+        self._forbid = _externals(self._plan_ctl, "forbid")
+        self._occ: dict[str, int | None] = {}
         self._kinds = _kinds(self._plan_ctl)
-        # Externals left open so that assumptions alone set the start state;
-        # an external fixed to false would make an assumption of true UNSAT.
-        for ctl, syms in (
-            (self._plan_ctl, [*self._fluents.values(), *self._forbid.values()]),
-            (self._step_ctl, list(self._step_fluents.values())),
-        ):
-            for sym in syms:
-                ctl.assign_external(sym, None)
         self.stats.ground_s += time.perf_counter() - t0
 
     def kind(self, action: str) -> str:
@@ -84,7 +77,7 @@ class BranchSolver:
         """An optimal sequential plan from `state` (outcomes chosen by the solver), or None."""
         assumptions = _assume(self._fluents, state)
         banned = set(forbid)
-        assumptions.extend((sym, action in banned) for action, sym in self._forbid.items())
+        assumptions.extend(lit if a in banned else -lit for a, lit in self._forbid.items())
         best: list[clingo.Symbol] = []
 
         def on_model(model: clingo.Model) -> None:
@@ -100,10 +93,11 @@ class BranchSolver:
 
     def outcomes(self, state: State, action: str) -> list[Outcome]:
         """Every outcome of `action` in `state` and the state after it."""
+        occ = self._occ_literal(action)
+        if occ is None:
+            return []
         assumptions = _assume(self._step_fluents, state)
-        assumptions.append(
-            (clingo.Function("occ", [clingo.parse_term(action), clingo.Number(0)]), True)
-        )
+        assumptions.append(occ)
         found: list[Outcome] = []
 
         def on_model(model: clingo.Model) -> None:
@@ -123,17 +117,30 @@ class BranchSolver:
         found.sort(key=lambda o: (o.label is None, o.label or ""))
         return found
 
+    def _occ_literal(self, action: str) -> int | None:
+        """The literal of `occ(action,0)`; None if grounding found it never possible."""
+        if action not in self._occ:
+            sym = clingo.Function("occ", [clingo.parse_term(action), clingo.Number(0)])
+            atom = self._step_ctl.symbolic_atoms[sym]
+            self._occ[action] = atom.literal if atom is not None else None
+        return self._occ[action]
+
     def _steps(self, symbols: Sequence[clingo.Symbol]) -> list[Step]:
         states: dict[int, set[str]] = {}
         actions: dict[int, str] = {}
         chosen: dict[int, str] = {}
-        for sym in symbols:
-            if sym.name == "h":
-                states.setdefault(sym.arguments[1].number, set()).add(str(sym.arguments[0]))
-            elif sym.name == "occ":
-                actions[sym.arguments[1].number] = str(sym.arguments[0])
-            elif sym.name == "out":
-                chosen[sym.arguments[2].number] = str(sym.arguments[1])
+        # Strings are split by hand: reading arguments through the C API is
+        # the slowest part of decoding a model.
+        for text in map(str, symbols):
+            head, _, time_text = text[:-1].rpartition(",")
+            t = int(time_text)
+            if text.startswith("h("):
+                states.setdefault(t, set()).add(head[2:])
+            elif text.startswith("occ("):
+                actions[t] = head[4:]
+            elif text.startswith("out("):
+                action, _, label = head[4:].rpartition(",")
+                chosen[t] = label
         steps = []
         for t in sorted(actions):
             action = actions[t]
@@ -149,11 +156,17 @@ class BranchSolver:
         return steps
 
 
-def _externals(ctl: clingo.Control, name: str) -> dict[str, clingo.Symbol]:
+def _externals(ctl: clingo.Control, name: str) -> dict[str, int]:
+    """External atoms `name(X)` by str(X), as solver literals, left open.
+
+    Open (not fixed to false) so that assumptions alone set them: an external
+    fixed to false would make an assumption of true UNSAT.
+    """
     out = {}
     for atom in ctl.symbolic_atoms.by_signature(name, 1):
         if atom.is_external:
-            out[str(atom.symbol.arguments[0])] = atom.symbol
+            ctl.assign_external(atom.symbol, None)
+            out[str(atom.symbol.arguments[0])] = atom.literal
     return out
 
 
@@ -164,8 +177,8 @@ def _kinds(ctl: clingo.Control) -> dict[str, str]:
     }
 
 
-def _assume(fluents: dict[str, clingo.Symbol], state: State) -> list[tuple[clingo.Symbol, bool]]:
+def _assume(fluents: dict[str, int], state: State) -> list[int]:
     unknown = state - fluents.keys()
     if unknown:
         raise ValueError(f"state has fluents the domain does not know: {sorted(unknown)}")
-    return [(sym, name in state) for name, sym in fluents.items()]
+    return [lit if name in state else -lit for name, lit in fluents.items()]
