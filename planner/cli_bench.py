@@ -1,0 +1,61 @@
+"""`tandem bench`: the paper's benchmark (planner/benchmark.py) on the command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from planner import benchmark
+from planner.benchmark import BenchRow
+
+
+def register(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--json", action="store_true", help="print the rows as JSON")
+    parser.add_argument(
+        "--only",
+        nargs="+",
+        action="extend",
+        metavar="NAME",
+        default=[],
+        help="instances to run, e.g. paper-01 U07 (repeatable)",
+    )
+    parser.add_argument("--workers", type=int, default=0, help="worker processes (0: all cores)")
+    parser.add_argument(
+        "--no-families",
+        action="store_true",
+        help="only the paper's 15 instances, not the families continued to n=10",
+    )
+    parser.add_argument(
+        "--repeat", type=int, default=1, metavar="K", help="plan each instance K times (median)"
+    )
+    parser.set_defaults(run=run_bench)
+
+
+def run_bench(args: argparse.Namespace) -> int:
+    if args.repeat < 1 or args.workers < 0:
+        print("tandem bench: --repeat must be >= 1 and --workers >= 0", file=sys.stderr)
+        return 2
+    try:
+        selected = benchmark.instances(args.only, families=not args.no_families)
+    except KeyError as err:
+        known = ", ".join(i.name for i in benchmark.instances())
+        print(f"tandem bench: unknown instance {err.args[0]} (known: {known})", file=sys.stderr)
+        return 2
+
+    def progress(i: int, row: BenchRow) -> None:
+        # On stderr, so --json output stays parseable while a long run shows signs of life.
+        done = f"{row.plan_s:.2f} s" if row.stats else "-"
+        print(
+            f"[{i + 1}/{len(selected)}] {row.instance.name}: {done}, {row.check}",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    rows = benchmark.run(selected, workers=args.workers, repeat=args.repeat, report=progress)
+    if args.json:
+        print(json.dumps([r.as_dict() for r in rows], indent=1))
+    else:
+        print(benchmark.report_text(rows, repeat=args.repeat, workers=args.workers))
+    # Non-zero when any instance has no plan or an unsound one, so `make bench` notices.
+    return 1 if any(r.error or r.violations for r in rows) else 0
