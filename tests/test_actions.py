@@ -62,10 +62,10 @@ def test_sense_human_holding(bs) -> None:  # type: ignore[no-untyped-def]
 def test_sense_which_part_spends_the_initiative(bs) -> None:  # type: ignore[no-untyped-def]
     out = successor(bs, {"humanHolding"}, "sense(humanHoldingWhichPart)")
     assert set(out) == {"leg2", "foot1", "foot2"}
-    assert out["leg2"] == {"humanHolding", "humanHoldingPart(leg2)", "initiativeTaken(leg2)"}
+    assert out["leg2"] == {"humanHolding", "humanHoldingPart(leg2)", "initiatives(1)"}
     # With the initiative spent nobody is a candidate: the robot stays sure the hands are free.
     after = successor(
-        bs, {"initiativeTaken(foot2)", "attached(foot2,leg2,foot)", "humanFree"}, "hold(left,leg1)"
+        bs, {"initiatives(1)", "attached(foot2,leg2,foot)", "humanFree"}, "hold(left,leg1)"
     )[None]
     assert "humanFree" in after
 
