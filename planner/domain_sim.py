@@ -1,0 +1,589 @@
+"""A plain-Python model of the Tandem domain (docs/domain.md) for the plan audit.
+
+Deliberately independent of clingo and of `planner/asp/`: the audit exists to
+catch mistakes in the encodings, so it re-implements the semantics from the
+document instead of reusing the solver.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+# ---------------------------------------------------------------- terms
+
+
+@dataclass(frozen=True)
+class Term:
+    """A ground term such as `sense(humanAttachingWhere(leg2,top))`."""
+
+    name: str
+    args: tuple[Term, ...] = ()
+
+    def __str__(self) -> str:
+        if not self.args:
+            return self.name
+        return f"{self.name}({','.join(str(a) for a in self.args)})"
+
+
+class TermError(ValueError):
+    """A string that is not a ground term."""
+
+
+_TOKEN = re.compile(
+    r"\s*(?:(?P<id>[a-z_][A-Za-z0-9_]*)|(?P<num>-?[0-9]+)"
+    r'|(?P<str>"(?:[^"\\]|\\.)*")|(?P<punct>[(),]))'
+)
+_PUNCT = frozenset("(),")
+
+
+def parse_term(text: str) -> Term:
+    """Parse a ground ASP term: constants, integers, strings, nested functions."""
+    tokens: list[str] = []
+    pos = 0
+    text = text.strip()  # _TOKEN skips leading blanks, so only trailing ones remain
+    while pos < len(text):
+        m = _TOKEN.match(text, pos)
+        if m is None:
+            raise TermError(f"cannot parse {text!r} at position {pos}")
+        tokens.append(m.group(m.lastgroup or "punct"))
+        pos = m.end()
+    term, rest = _parse_tokens(text, tokens, 0)
+    if rest != len(tokens):
+        raise TermError(f"cannot parse {text!r}: unexpected {tokens[rest]!r}")
+    return term
+
+
+def _parse_tokens(text: str, tokens: list[str], i: int) -> tuple[Term, int]:
+    if i >= len(tokens) or tokens[i] in _PUNCT:
+        raise TermError(f"cannot parse {text!r}: expected a name")
+    name = tokens[i]
+    i += 1
+    if i >= len(tokens) or tokens[i] != "(":
+        return Term(name), i
+    if not re.fullmatch(r"[a-z_][A-Za-z0-9_]*", name):
+        raise TermError(f"cannot parse {text!r}: {name!r} cannot take arguments")
+    args: list[Term] = []
+    i += 1
+    while True:
+        arg, i = _parse_tokens(text, tokens, i)
+        args.append(arg)
+        if i < len(tokens) and tokens[i] == ",":
+            i += 1
+            continue
+        if i < len(tokens) and tokens[i] == ")":
+            return Term(name, tuple(args)), i + 1
+        raise TermError(f"cannot parse {text!r}: expected ',' or ')'")
+
+
+def constants(term: Term) -> tuple[str, ...] | None:
+    """The arguments of `term` as plain strings, or None if any is nested."""
+    if any(a.args for a in term.args):
+        return None
+    return tuple(a.name for a in term.args)
+
+
+# ---------------------------------------------------------------- state
+
+# A fluent is ("attached", "leg1", "top", "c1"); tuples make matching easy.
+Fluent = tuple[str, ...]
+State = frozenset[Fluent]
+
+FLUENT_ARITY: dict[str, int] = {
+    "attached": 3,
+    "holding": 2,
+    "humanFree": 0,
+    "humanHolding": 0,
+    "humanHoldingPart": 1,
+    "wantToAttach": 2,
+    "acceptToAttach": 2,
+    "requestedAttach": 2,
+    "reserved": 1,
+    "declined": 2,
+    "keepsHolding": 1,
+    "initiatives": 1,  # initiatives(N): the human took the initiative N times
+}
+TASKS = ("wantToAttach", "acceptToAttach", "requestedAttach")
+HUMAN_FREE: Fluent = ("humanFree",)
+HUMAN_HOLDING: Fluent = ("humanHolding",)
+
+
+def fluent_str(f: Fluent) -> str:
+    return f[0] if len(f) == 1 else f"{f[0]}({','.join(f[1:])})"
+
+
+def parse_state(items: object) -> tuple[State, list[str]]:
+    """Parse a node's `state` list; unknown or malformed fluents are errors."""
+    if not isinstance(items, list):
+        return frozenset(), ["state must be a list of fluent strings"]
+    out: set[Fluent] = set()
+    errors: list[str] = []
+    for item in items:
+        if not isinstance(item, str):
+            errors.append(f"state: {item!r} is not a string")
+            continue
+        try:
+            term = parse_term(item)
+        except TermError as exc:
+            errors.append(f"state: {exc}")
+            continue
+        args = constants(term)
+        if (
+            args is None
+            or FLUENT_ARITY.get(term.name) != len(args)
+            or (term.name == "initiatives" and not re.fullmatch(r"[1-9][0-9]*", args[0]))
+        ):
+            errors.append(f"state: unknown fluent {item}")
+            continue
+        out.add((term.name, *args))
+    return frozenset(out), errors
+
+
+# ---------------------------------------------------------------- facts
+
+_FACT_ARITY: dict[str, int] = {
+    "part": 1, "movable": 1, "class": 2, "attachable": 2, "connection": 2,
+    "dangerous": 1, "region": 1, "humanReach": 1, "loc": 2, "manipulator": 1,
+    "reachable": 2, "goal": 2, "safety": 1, "verbosity": 1, "initiative": 1,
+}  # fmt: skip
+
+
+@dataclass
+class Facts:
+    """The static facts of a plan file, indexed."""
+
+    parts: set[str] = field(default_factory=set)
+    movable: set[str] = field(default_factory=set)
+    cls: dict[str, str] = field(default_factory=dict)
+    attachable: set[tuple[str, str]] = field(default_factory=set)
+    connections: dict[str, set[str]] = field(default_factory=dict)
+    dangerous: set[str] = field(default_factory=set)
+    regions: set[str] = field(default_factory=set)
+    human_reach: set[str] = field(default_factory=set)
+    loc: dict[str, str] = field(default_factory=dict)
+    manipulators: list[str] = field(default_factory=list)
+    reachable: set[tuple[str, str]] = field(default_factory=set)
+    goals: list[tuple[str, str]] = field(default_factory=list)
+    safety: str = "normal"
+    verbosity: str = "normal"
+    initiative: int = 1  # how often the human may pick a part up unasked
+
+
+def parse_facts(items: object) -> tuple[Facts, list[str]]:
+    """Index the fact strings. Unknown predicates are ignored (planner helpers)."""
+    facts = Facts()
+    if not isinstance(items, list):
+        return facts, ["facts must be a list of strings"]
+    errors: list[str] = []
+    for item in items:
+        try:
+            term = parse_term(item) if isinstance(item, str) else None
+        except TermError as exc:
+            errors.append(f"facts: {exc}")
+            continue
+        if term is None:
+            errors.append(f"facts: {item!r} is not a string")
+            continue
+        args = constants(term)
+        arity = _FACT_ARITY.get(term.name)
+        if arity is None:
+            continue
+        if args is None or len(args) != arity:
+            errors.append(f"facts: {item} should have {arity} constant argument(s)")
+            continue
+        error = _add_fact(facts, term.name, args)
+        if error:
+            errors.append(f"facts: {item}: {error}")
+    return facts, errors
+
+
+def _add_fact(f: Facts, name: str, a: tuple[str, ...]) -> str | None:
+    simple: dict[str, set[str]] = {
+        "part": f.parts, "movable": f.movable, "dangerous": f.dangerous,
+        "region": f.regions, "humanReach": f.human_reach,
+    }  # fmt: skip
+    if name in simple:
+        simple[name].add(a[0])
+    elif name == "class":
+        # class(Cl,P): the class comes first.
+        if f.cls.setdefault(a[1], a[0]) != a[0]:
+            return f"{a[1]} already has class {f.cls[a[1]]}"
+    elif name == "loc":
+        if f.loc.setdefault(a[0], a[1]) != a[1]:
+            return f"{a[0]} already lies in {f.loc[a[0]]}"
+    elif name == "attachable":
+        f.attachable.add((a[0], a[1]))
+    elif name == "connection":
+        f.connections.setdefault(a[0], set()).add(a[1])
+    elif name == "manipulator":
+        if a[0] not in f.manipulators:
+            f.manipulators.append(a[0])
+    elif name == "reachable":
+        f.reachable.add((a[0], a[1]))
+    elif name == "goal":
+        if (a[0], a[1]) not in f.goals:
+            f.goals.append((a[0], a[1]))
+    elif name == "safety":
+        f.safety = a[0]
+    elif name == "verbosity":
+        f.verbosity = a[0]
+    elif name == "initiative":
+        if not re.fullmatch(r"[0-9]+", a[0]):
+            return "the budget must be a non-negative integer"
+        f.initiative = int(a[0])
+    return None
+
+
+def term_order(arg: str) -> tuple[int, int, str]:
+    """Sort key of a constant argument in ASP term order (what `#min` uses):
+    integers by value, then plain constants by their bytes, then strings."""
+    if re.fullmatch(r"-?[0-9]+", arg):
+        return (0, int(arg), "")
+    return (2 if arg.startswith('"') else 1, 0, arg)
+
+
+# ---------------------------------------------------------------- actions
+
+ACTUATION, SENSING, COMMUNICATION, GOAL = "actuation", "sensing", "communication", "goal"
+KINDS = (ACTUATION, SENSING, COMMUNICATION, GOAL)
+
+# name -> (kind, argument types, deterministic). Sensing actions are keyed by
+# the inner term's name (`sense(humanUnholding(P))` -> "humanUnholding").
+_ACTIONS: dict[str, tuple[str, tuple[str, ...], bool]] = {
+    "hold": (ACTUATION, ("manipulator", "part"), True),
+    "attach": (ACTUATION, ("manipulator", "part", "point"), True),
+    "unhold": (ACTUATION, ("manipulator",), True),
+    "humanHolding": (SENSING, (), False),
+    "humanHoldingWhichPart": (SENSING, (), False),
+    "humanUnholding": (SENSING, ("part",), False),
+    "humanAttachingWhere": (SENSING, ("part", "part"), False),
+    "confirmAttach": (COMMUNICATION, ("part", "part"), False),
+    "askHelp": (COMMUNICATION, ("part", "part"), False),
+    "offerHelp": (COMMUNICATION, ("part", "part"), False),
+    "requestToUnhold": (COMMUNICATION, ("part",), True),
+    "requestToAttach": (COMMUNICATION, ("part", "part"), True),
+}
+_SENSED = {k for k, v in _ACTIONS.items() if v[0] == SENSING}
+
+
+@dataclass(frozen=True)
+class Action:
+    name: str
+    args: tuple[str, ...]
+    text: str  # canonical rendering, for messages
+
+    @property
+    def kind(self) -> str:
+        return _ACTIONS[self.name][0]
+
+    @property
+    def deterministic(self) -> bool:
+        return _ACTIONS[self.name][2]
+
+
+def parse_action(text: str, facts: Facts) -> Action | str:
+    """The action, or an error message (unknown action, arity, unknown ids)."""
+    try:
+        term = parse_term(text)
+    except TermError as exc:
+        return str(exc)
+    shown = str(term)
+    inner = term
+    if term.name == "sense":
+        if len(term.args) != 1 or term.args[0].name not in _SENSED:
+            return f"unknown action {shown}"
+        inner = term.args[0]
+    elif term.name not in _ACTIONS or term.name in _SENSED:
+        return f"unknown action {shown}"
+    _, types, _ = _ACTIONS[inner.name]
+    args = constants(inner)
+    if args is None or len(args) != len(types):
+        return f"{shown}: {inner.name} takes {len(types)} constant argument(s)"
+    for arg, typ in zip(args, types, strict=True):
+        if typ == "manipulator" and arg not in facts.manipulators:
+            return f"{shown}: unknown manipulator {arg}"
+        if typ == "part" and arg not in facts.parts:
+            return f"{shown}: unknown part {arg}"
+    return Action(inner.name, args, shown)
+
+
+# ---------------------------------------------------------------- semantics
+
+
+class Domain:
+    """Derived notions, preconditions and outcomes over a state (docs/domain.md)."""
+
+    def __init__(self, facts: Facts) -> None:
+        self.f = facts
+
+    # -- derived notions, evaluated in the state before the action
+    def held_by(self, s: State, m: str) -> list[str]:
+        return sorted(x[2] for x in s if x[0] == "holding" and x[1] == m)
+
+    def free(self, s: State, m: str) -> bool:
+        return not self.held_by(s, m)
+
+    def is_attached(self, s: State, p: str) -> bool:
+        return any(x[0] == "attached" and x[1] == p for x in s)
+
+    def loose(self, s: State, p: str) -> bool:
+        return not self.is_attached(s, p) and not any(x[0] == "holding" and x[2] == p for x in s)
+
+    def root(self, s: State, q: str) -> str:
+        seen = {q}
+        while True:
+            up = sorted(x[2] for x in s if x[0] == "attached" and x[1] == q)
+            # The visited set guards against attachment cycles in a bad state.
+            if not up or up[0] in seen:
+                return q
+            q = up[0]
+            seen.add(q)
+
+    def in_reach(self, p: str) -> bool:
+        return self.f.loc.get(p) in self.f.human_reach
+
+    def spent(self, s: State) -> int:
+        """How often the human took the initiative: the largest `initiatives(N)`, or 0."""
+        return max((int(x[1]) for x in s if x[0] == "initiatives"), default=0)
+
+    def initiative_left(self, s: State) -> bool:
+        return self.spent(s) < self.f.initiative
+
+    def took_initiative(self, s: State) -> State:
+        """Count one more initiative; which part it was is not remembered."""
+        n = self.spent(s)
+        return (s - {("initiatives", str(n))}) | {("initiatives", str(n + 1))}
+
+    def candidates(self, s: State) -> list[str]:
+        if not self.initiative_left(s):
+            return []
+        return sorted(
+            p
+            for p in self.f.parts
+            if p in self.f.movable
+            and self.loose(s, p)
+            and self.in_reach(p)
+            and ("reserved", p) not in s
+        )
+
+    def open_points(self, s: State, p: str, q: str) -> list[str]:
+        """Q's unoccupied points that P could take, in ASP term order."""
+        if p == q or (self.f.cls.get(p), self.f.cls.get(q)) not in self.f.attachable:
+            return []
+        taken = {x[3] for x in s if x[0] == "attached" and x[2] == q}
+        return sorted(self.f.connections.get(q, set()) - taken, key=term_order)
+
+    def free_point(self, s: State, p: str, q: str) -> str | None:
+        """The first open point: points are interchangeable, plans name this one."""
+        points = self.open_points(s, p, q)
+        return points[0] if points else None
+
+    def still_needed(self, s: State, p: str) -> bool:
+        return any(
+            gp == p and not any(x[0] == "attached" and x[1:3] == (p, q) for x in s)
+            for gp, q in self.f.goals
+        )
+
+    def human_workable(self, s: State, q: str) -> bool:
+        r = self.root(s, q)
+        return self.loose(s, r) and self.in_reach(r)
+
+    def unsafe_region(self, s: State, r: str) -> bool:
+        return r in self.f.human_reach and any(
+            self.f.loc.get(p) == r and self.loose(s, p) for p in self.f.dangerous
+        )
+
+    def tasks(self, s: State) -> list[Fluent]:
+        return sorted(x for x in s if x[0] in TASKS)
+
+    def human_knows_not(self, s: State, x: str) -> bool:
+        return HUMAN_FREE in s or any(f[0] == "humanHoldingPart" and f[1] != x for f in s)
+
+    def settled(self, p: str) -> set[Fluent]:
+        """What is forgotten about P once it is attached."""
+        return {
+            ("reserved", p),
+            ("keepsHolding", p),
+            *(("declined", p, q) for gp, q in self.f.goals if gp == p),
+        }
+
+    def lapse(self, s: State) -> State:
+        # The human may have picked up any candidate meanwhile.
+        return s - {HUMAN_FREE} if self.candidates(s) else s
+
+    # -- preconditions
+    def preconditions(self, s: State, a: Action) -> tuple[list[str], list[str]]:
+        """(failed preconditions by name, safety messages) of `a` in `s`."""
+        f = self.f
+        fails: list[str] = []
+        safety: list[str] = []
+
+        def need(ok: bool, name: str) -> None:
+            if not ok:
+                fails.append(name)
+
+        n, x = a.name, a.args
+        p = x[0] if x else ""
+        q = x[1] if len(x) > 1 else ""
+        if n in ("askHelp", "requestToAttach", "requestToUnhold", "confirmAttach"):
+            if p in f.dangerous:
+                safety.append(f"safety: {a.text} involves the dangerous part {p}")
+        if n in ("askHelp", "requestToAttach") and f.safety == "strict":
+            r = f.loc.get(p, "")
+            if self.unsafe_region(s, r):
+                safety.append(
+                    f"safety: {a.text} under strict safety: {p} lies in unsafeRegion({r})"
+                )
+        if n in ("confirmAttach", "askHelp", "offerHelp", "requestToAttach"):
+            # The shared tail of every "the human attaches P to Q" action.
+            need((p, q) in f.goals, f"goal({p},{q})")
+            need(self.free_point(s, p, q) is not None, f"freePoint({p},{q},_)")
+            need(self.human_workable(s, q), f"humanWorkable({q})")
+        if n in ("askHelp", "requestToAttach"):
+            need(HUMAN_FREE in s, "humanFree")
+            need(p in f.movable, f"movable({p})")
+            need(self.loose(s, p), f"loose({p})")
+            need(self.in_reach(p), f"humanReach({f.loc.get(p, '_')})")
+        if n in ("confirmAttach", "askHelp", "offerHelp", "requestToAttach",
+                 "requestToUnhold", "humanUnholding"):  # fmt: skip
+            need(not self.tasks(s), "noTask")
+        if n in ("confirmAttach", "offerHelp", "requestToUnhold", "humanUnholding"):
+            need(("humanHoldingPart", p) in s, f"humanHoldingPart({p})")
+
+        if n == "hold":
+            m, p = x
+            need(self.free(s, m), f"free({m})")
+            need(p in f.movable, f"movable({p})")
+            need(self.loose(s, p), f"loose({p})")
+            need((m, p) in f.reachable, f"reachable({m},{p})")
+            if self.in_reach(p):
+                need(self.human_knows_not(s, p), f"humanKnowsNot({p})")
+            need(self.still_needed(s, p), f"stillNeeded({p})")
+        elif n == "attach":
+            fails.extend(self._attach_preconditions(s, a))
+        elif n == "unhold":
+            held = self.held_by(s, x[0])
+            need(bool(held), f"holding({x[0]},_)")
+            if held:
+                h = held[0]
+                need(
+                    self.is_attached(s, h) or any(y[0] == "attached" and y[2] == h for y in s),
+                    f"attached({h},_,_) or attached(_,{h},_)",
+                )
+        elif n == "humanHolding":
+            need(HUMAN_FREE not in s, "not humanFree")
+            need(HUMAN_HOLDING not in s, "not humanHolding")
+        elif n == "humanHoldingWhichPart":
+            need(HUMAN_HOLDING in s, "humanHolding")
+            need(not any(y[0] == "humanHoldingPart" for y in s), "not humanHoldingPart(_)")
+        elif n == "humanUnholding":
+            need(("reserved", p) in s, f"reserved({p})")
+            need(("keepsHolding", p) not in s, f"not keepsHolding({p})")
+        elif n == "humanAttachingWhere":
+            need(any(y[1:] == (p, q) for y in self.tasks(s)), f"a pending task on ({p},{q})")
+        elif n == "confirmAttach":
+            need(("reserved", p) not in s, f"not reserved({p})")
+        elif n == "askHelp":
+            for m in f.manipulators:
+                need((m, p) not in f.reachable, f"not reachable({m},{p})")
+            need(("declined", p, q) not in s, f"not declined({p},{q})")
+        elif n == "offerHelp":
+            need(p in f.dangerous, f"dangerous({p})")
+            need(any((m, p) in f.reachable for m in f.manipulators), f"reachable(_,{p})")
+        elif n == "requestToAttach":
+            need(("declined", p, q) in s, f"declined({p},{q})")
+        return fails, safety
+
+    def _attach_preconditions(self, s: State, a: Action) -> list[str]:
+        m, q, c = a.args
+        held = self.held_by(s, m)
+        if not held:
+            return [f"holding({m},_)"]
+        p = held[0]
+        fails: list[str] = []
+        if p == q:
+            fails.append(f"{p} != {q}")
+        if self.is_attached(s, p):
+            fails.append(f"not attached({p},_,_)")
+        if (p, q) not in self.f.goals:
+            fails.append(f"goal({p},{q})")
+        if self.free_point(s, p, q) != c:
+            fails.append(f"freePoint({p},{q},{c})")
+        if any(t[2] == q for t in self.tasks(s)):
+            fails.append(f"no pending task with second argument {q}")
+        if any(y[0] == "holding" and y[1] != m and y[2] == q for y in s):
+            return fails  # Q is held by the other manipulator.
+        r = self.root(s, q)
+        alt = f"{q} held by the other manipulator, or"
+        if not self.loose(s, r):
+            fails.append(f"{alt} loose({r})")
+        elif (m, r) not in self.f.reachable:
+            fails.append(f"{alt} reachable({m},{r})")
+        elif r in self.f.movable and self.in_reach(r) and not self.human_knows_not(s, r):
+            fails.append(f"{alt} humanKnowsNot({r})")
+        return fails
+
+    # -- outcomes
+    def outcomes(self, s: State, a: Action) -> dict[str | None, State] | None:
+        """Successor state per outcome label (None: deterministic), or None if
+        the action cannot be simulated at all (attach/unhold of nothing held)."""
+        n, x = a.name, a.args
+        p = x[0] if x else ""
+        q = x[1] if len(x) > 1 else ""
+        hand = {HUMAN_HOLDING, ("humanHoldingPart", p)}
+        if n == "hold":
+            return {None: self.lapse(s | {("holding", x[0], x[1])})}
+        if n == "attach":
+            held = self.held_by(s, x[0])
+            if not held:
+                return None
+            settled = (s - self.settled(held[0])) | {("attached", held[0], x[1], x[2])}
+            return {None: self.lapse(settled)}
+        if n == "unhold":
+            if not self.held_by(s, x[0]):
+                return None
+            return {None: self.lapse(frozenset(y for y in s if y[:2] != ("holding", x[0])))}
+        if n == "humanHolding":
+            cands = self.candidates(s)
+            no = s | {HUMAN_FREE}
+            if not cands:
+                return {"no": no}  # nothing the human could have picked up
+            if len(cands) > 1:
+                return {"yes": s | {HUMAN_HOLDING}, "no": no}
+            yes = self.took_initiative(s) | {HUMAN_HOLDING, ("humanHoldingPart", cands[0])}
+            return {"yes": yes, "no": no}
+        if n == "humanHoldingWhichPart":
+            counted = self.took_initiative(s)
+            return {c: counted | {("humanHoldingPart", c)} for c in self.candidates(s)}
+        if n == "humanUnholding":
+            return {"yes": (s - hand) | {HUMAN_FREE}, "no": s | {("keepsHolding", p)}}
+        if n == "humanAttachingWhere":
+            done = {(t, p, q) for t in TASKS} | hand | self.settled(p)
+            c = self.free_point(s, p, q)
+            return {} if c is None else {c: (s - done) | {("attached", p, q, c), HUMAN_FREE}}
+        if n == "confirmAttach":
+            return {"yes": s | {("wantToAttach", p, q)}, "no": s | {("reserved", p)}}
+        if n == "askHelp":
+            took = {("acceptToAttach", p, q), *hand}
+            return {"yes": (s - {HUMAN_FREE}) | took, "no": s | {("declined", p, q)}}
+        if n == "offerHelp":
+            return {
+                "yes": (s - hand) | {HUMAN_FREE, ("reserved", p)},
+                "no": s | {("wantToAttach", p, q)},
+            }
+        if n == "requestToUnhold":
+            return {None: (s - hand - {("keepsHolding", p)}) | {HUMAN_FREE, ("reserved", p)}}
+        if n == "requestToAttach":
+            return {None: (s - {HUMAN_FREE}) | {("requestedAttach", p, q), *hand}}
+        raise AssertionError(f"unhandled action {a.text}")  # parse_action admits no other
+
+    # -- goal and consistency
+    def goal_failures(self, s: State) -> list[str]:
+        out = [
+            f"{p} is not attached to {q}"
+            for p, q in self.f.goals
+            if not any(y[0] == "attached" and y[1:3] == (p, q) for y in s)
+        ]
+        out += [f"{y[1]} still holds {y[2]}" for y in sorted(s) if y[0] == "holding"]
+        out += [f"pending task {fluent_str(t)}" for t in self.tasks(s)]
+        return out
