@@ -167,6 +167,7 @@ class ConditionalPlanner:
         self.solve_s = 0.0
         self.checks = 0
         self._cancel = threading.Event()
+        self.root: State = frozenset()
 
     def cancel(self) -> None:
         self._cancel.set()
@@ -191,6 +192,7 @@ class ConditionalPlanner:
     def build(self, root: State) -> State:
         """Plan from `root`; returns it (the DAG is in `self.nodes`)."""
         t0 = time.perf_counter()
+        self.root = root
         self._node(root)
         queue: deque[State] = deque([root])
         pending: dict[Future[BranchResult], State] = {}
@@ -213,8 +215,12 @@ class ConditionalPlanner:
                     self.solves += 1
                     self.solve_s += result.solve_s
                     self.checks += result.checks
-                    queue.extend(self._integrate(result, root))
-                    if not first_done and self.nodes[root].action is not None:
+                    ahead, later = self._integrate(result, root)
+                    # The hoped-for branch is continued first: it is the one
+                    # that becomes executable first (anytime planning).
+                    queue.extendleft(reversed(ahead))
+                    queue.extend(later)
+                    if not first_done and self._expected_branch_done(root):
                         first_done = True
                         if self.on_first_branch:
                             self.on_first_branch(self.nodes)
@@ -264,13 +270,28 @@ class ConditionalPlanner:
             self.parents.setdefault(state, set())
         return node
 
-    def _integrate(self, result: BranchResult, root: State) -> list[State]:
-        """Adds a branch to the DAG; returns states that now need a plan."""
+    def _expected_branch_done(self, root: State) -> bool:
+        """True when the branch of hoped-for outcomes reaches a goal."""
+        state, seen = root, set()
+        while state not in seen:
+            seen.add(state)
+            node = self.nodes[state]
+            if node.goal:
+                return True
+            if node.action is None:
+                return False
+            state = dict(node.children).get(node.expected, node.children[0][1])
+        return False
+
+    def _integrate(self, result: BranchResult, root: State) -> tuple[list[State], list[State]]:
+        """Adds a branch to the DAG; returns the states that now need a plan:
+        the continuation of the hoped-for branch, and the others."""
         start = self.nodes.get(result.start)
         if start is None or start.action is not None:
-            return []  # planned meanwhile along another branch
+            return [], []  # planned meanwhile along another branch
         if result.steps is None:
-            return self._dead_end(result.start, root, result.horizon)
+            return [], self._dead_end(result.start, root, result.horizon)
+        ahead: list[State] = []
         todo: list[State] = []
         for step in result.steps:
             node = self._node(step.state)
@@ -285,9 +306,13 @@ class ConditionalPlanner:
                 self.parents[succ].add(step.state)
                 # Other outcomes need plans of their own; so does the end of
                 # this branch when it stopped at a milestone short of the goal.
-                if (label != step.chosen or last) and child.action is None and not child.goal:
+                if child.action is not None or child.goal:
+                    continue
+                if label != step.chosen:
                     todo.append(succ)
-        return todo
+                elif last:
+                    ahead.append(succ)
+        return ahead, todo
 
     def _dead_end(self, state: State, root: State, horizon: int) -> list[State]:
         """Bans the action that led here at every parent and plans those again."""

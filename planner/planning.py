@@ -15,6 +15,10 @@ from planner.solver import State
 DEFAULT_HORIZON = 8
 
 
+class PlanningCancelled(Exception):
+    """Planning was cancelled before every branch was planned."""
+
+
 @dataclass
 class PlanResult:
     plan: Plan
@@ -64,6 +68,8 @@ def plan_scenario(
     if planner_hook:
         planner_hook(planner)
     root = planner.build(initial_state(scenario))
+    if planner.cancelled:
+        raise PlanningCancelled(f"cancelled after {planner.solves} solves")
     plan_s = time.perf_counter() - t0
     plan = build_plan(
         planner.nodes,

@@ -1,0 +1,80 @@
+"""The conditional-plan builder: progress, cancel, anytime first branch, ground once."""
+
+from __future__ import annotations
+
+import pytest
+
+from planner import encoding, solver
+from planner.audit import audit
+from planner.hcp import ConditionalPlanner, DagNode, Progress
+from planner.planning import PlanningCancelled, plan_scenario
+from planner.solver import State
+from tests.domain_fixtures import scenario
+
+
+def test_progress_reports_done_and_open_until_nothing_is_open() -> None:
+    seen: list[Progress] = []
+    result = plan_scenario(scenario(), workers=1, progress=seen.append)
+    assert seen and seen[-1].open == 0
+    assert seen[-1].done == result.plan.stats["dag_nodes"]
+    assert any(p.open > 0 for p in seen)
+    assert [p.solves for p in seen] == sorted(p.solves for p in seen)
+
+
+def test_first_branch_is_complete_before_the_rest() -> None:
+    snapshots: list[tuple[int, list[str]]] = []
+    planners: list[ConditionalPlanner] = []
+
+    def on_first(nodes: dict[State, DagNode]) -> None:
+        # Follow the hoped-for outcomes from the root: every step must be planned.
+        planner = planners[0]
+        state, path = planner.root, []
+        while not nodes[state].goal:
+            node = nodes[state]
+            assert node.action is not None
+            path.append(node.action)
+            state = dict(node.children)[node.expected] if node.expected else node.children[0][1]
+        snapshots.append((planner.solves, path))
+
+    def hook(planner: ConditionalPlanner) -> None:
+        planners.append(planner)
+        planner.on_first_branch = on_first
+
+    result = plan_scenario(scenario(), workers=1, planner_hook=hook)
+    solves_then, path = snapshots[0]
+    assert solves_then < result.solves
+    assert [a for a, _ in result.plan.first_branch()] == path
+
+
+def test_cancel_stops_planning() -> None:
+    planners: list[ConditionalPlanner] = []
+
+    def cancel_at_once(p: Progress) -> None:
+        planners[0].cancel()
+
+    with pytest.raises(PlanningCancelled):
+        plan_scenario(scenario(), workers=1, progress=cancel_at_once, planner_hook=planners.append)
+    assert planners[0].solves <= 2
+
+
+def test_parallel_workers_give_a_sound_plan() -> None:
+    result = plan_scenario(scenario(), workers=2)
+    assert audit(result.plan.doc) == []
+    # States reached along several branches are planned once: a DAG, not a tree.
+    assert result.plan.stats["N"] > result.plan.stats["dag_nodes"]
+
+
+def test_grounds_once_per_horizon_and_solves_many_times(monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[int] = []
+    real = encoding.ground
+
+    def counting(*args, **kwargs):  # type: ignore[no-untyped-def]
+        calls.append(args[1])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(solver, "ground", counting)
+    result = plan_scenario(scenario(), workers=1)
+    assert result.solves > 20
+    # One planning program (and one one-step program) per horizon used.
+    assert len(calls) == len(set(calls)) + calls.count(1) - (1 if 1 in set(calls) else 0)
+    assert len(calls) <= 6
