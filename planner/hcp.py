@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from planner.encoding import FeasibilityContext
 from planner.solver import BranchSolver, State
 
-MAX_HORIZON_FACTOR = 4
+MAX_HORIZON_FACTOR = 8
 
 
 @dataclass(frozen=True)

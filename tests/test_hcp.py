@@ -78,3 +78,33 @@ def test_grounds_once_per_horizon_and_solves_many_times(monkeypatch: pytest.Monk
     # One planning program (and one one-step program) per horizon used.
     assert len(calls) == len(set(calls)) + calls.count(1) - (1 if 1 in set(calls) else 0)
     assert len(calls) <= 6
+
+
+def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> None:
+    from planner.hcp import DeadEnd, Problem, _BranchPlanner
+    from planner.planning import DEFAULT_HORIZON, initial_state
+
+    sc = scenario()
+    reach = frozenset(sc.reachable_pairs())
+    facts = tuple(f for f in sc.facts(reach) if not f.startswith("reachable("))
+    problem = Problem(facts, reach, DEFAULT_HORIZON)
+    planner = ConditionalPlanner(problem, sc.goal_pairs(), workers=1)
+    worker = _BranchPlanner(problem)
+    root = initial_state(sc)
+    planner.root = root
+    planner._node(root)
+    first = worker.branch(root, frozenset())
+    planner._integrate(first, root)
+    first_action = planner.nodes[root].action
+    assert first_action is not None
+    # Suppose the state after the root's action turned out to be a dead end.
+    after = planner.nodes[root].children[0][1]
+    todo = planner._dead_end(after, root, DEFAULT_HORIZON)
+    assert todo == [root]
+    assert planner.nodes[root].action is None
+    assert planner.nodes[root].forbidden == {first_action}
+    again = worker.branch(root, frozenset(planner.nodes[root].forbidden))
+    assert again.steps is not None and again.steps[0].action != first_action
+    # A dead end at the start state itself is reported, naming the state.
+    with pytest.raises(DeadEnd, match="no plan within"):
+        planner._dead_end(root, root, DEFAULT_HORIZON)
