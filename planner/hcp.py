@@ -11,12 +11,13 @@ it and plans its parent again; a dead end at the start state is reported.
 
 from __future__ import annotations
 
+import itertools
 import multiprocessing as mp
 import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 
 from planner.encoding import FeasibilityContext
@@ -208,7 +209,13 @@ class ConditionalPlanner:
                     if state in pending.values():
                         continue
                     pending[executor(state, frozenset(node.forbidden))] = state
-                done, _ = wait(list(pending), return_when=FIRST_COMPLETED, timeout=0.2)
+                if not pending:
+                    continue
+                # Results are taken in the order they were asked for, so the
+                # DAG does not depend on which worker finished first: with
+                # one worker a scenario always gives the same plan.
+                wait([next(iter(pending))], timeout=0.2)
+                done = list(itertools.takewhile(Future.done, pending))
                 for fut in done:
                     del pending[fut]
                     result = fut.result()

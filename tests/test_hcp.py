@@ -108,3 +108,12 @@ def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> N
     # A dead end at the start state itself is reported, naming the state.
     with pytest.raises(DeadEnd, match="no plan within"):
         planner._dead_end(root, root, DEFAULT_HORIZON)
+
+
+def test_one_worker_always_gives_the_same_plan() -> None:
+    def doc() -> dict[str, object]:
+        d = plan_scenario(scenario(), workers=1).plan.doc
+        d["stats"] = {k: v for k, v in d["stats"].items() if not k.endswith("_s")}
+        return d
+
+    assert doc() == doc()
