@@ -106,10 +106,11 @@ class _BranchPlanner:
         steps = None
         # A branch that needs more steps than the default horizon is retried
         # with a longer one before it is called a dead end.
-        while steps is None and horizon <= self.problem.horizon * MAX_HORIZON_FACTOR:
+        while True:
             steps = self.solver(horizon).plan(start, forbid)
-            if steps is None:
-                horizon *= 2
+            if steps is not None or horizon * 2 > self.problem.horizon * MAX_HORIZON_FACTOR:
+                break
+            horizon *= 2
         planned = None
         if steps is not None:
             solver = self.solver(self.problem.horizon)
@@ -323,11 +324,15 @@ class ConditionalPlanner:
 
     def _dead_end(self, state: State, root: State, horizon: int) -> list[State]:
         """Bans the action that led here at every parent and plans those again."""
-        self.dead_ends.append(
-            f"no plan within {horizon} steps from state {{{', '.join(sorted(state))}}}"
-        )
+        why = f"no way to the goal within {horizon} steps from {{{', '.join(sorted(state))}}}"
+        self.dead_ends.append(f"{self._branch_to(state, root)}: {why}")
         if state == root:
-            raise DeadEnd(self.dead_ends[-1])
+            if len(self.dead_ends) == 1:
+                raise DeadEnd(f"at the start: {why}")
+            raise DeadEnd(
+                "every choice at the start leads to a dead end; first dead branch: "
+                + self.dead_ends[0]
+            )
         todo = []
         for parent in list(self.parents.get(state, ())):
             pnode = self.nodes[parent]
@@ -339,6 +344,25 @@ class ConditionalPlanner:
             pnode.action, pnode.kind, pnode.children, pnode.expected = None, None, [], None
             todo.append(parent)
         return todo
+
+    def _branch_to(self, target: State, root: State) -> str:
+        """The branch from the root to `target`, as `action -> outcome` steps."""
+        back: dict[State, tuple[State, str]] = {}
+        queue = deque([root])
+        while queue and target not in back:
+            state = queue.popleft()
+            node = self.nodes[state]
+            for label, succ in node.children:
+                if succ not in back and succ != root:
+                    shown = f"{node.action} -> {label}" if label is not None else f"{node.action}"
+                    back[succ] = (state, shown)
+                    queue.append(succ)
+        steps: list[str] = []
+        state = target
+        while state in back:
+            state, shown = back[state]
+            steps.append(shown)
+        return " > ".join(reversed(steps)) or "start"
 
     def _prune(self, root: State) -> None:
         """Drops nodes no longer reachable (after dead ends) and checks for cycles."""

@@ -106,7 +106,7 @@ def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> N
     again = worker.branch(root, frozenset(planner.nodes[root].forbidden))
     assert again.steps is not None and again.steps[0].action != first_action
     # A dead end at the start state itself is reported, naming the state.
-    with pytest.raises(DeadEnd, match="no plan within"):
+    with pytest.raises(DeadEnd, match="at the start: no way to the goal within"):
         planner._dead_end(root, root, DEFAULT_HORIZON)
 
 

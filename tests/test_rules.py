@@ -33,6 +33,8 @@ def test_safety_never_asks_help_with_a_dangerous_part(tmp_path: Path) -> None:
     )
     assert run.returncode == 1
     assert "no plan" in run.stderr and "Traceback" not in run.stderr
+    # It names a dead branch and the state where nothing more can be done.
+    assert "first dead branch: " in run.stderr and "no way to the goal" in run.stderr
 
 
 def test_safety_never_confirms_a_dangerous_attachment() -> None:
