@@ -105,8 +105,8 @@ def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> N
     assert planner.nodes[root].forbidden == {first_action}
     again = worker.branch(root, frozenset(planner.nodes[root].forbidden))
     assert again.steps is not None and again.steps[0].action != first_action
-    # A dead end at the start state itself is reported, naming the state.
-    with pytest.raises(DeadEnd, match="at the start: no way to the goal within"):
+    # A dead end at the start state itself is reported, naming the dead branch.
+    with pytest.raises(DeadEnd, match="first dead branch: hold"):
         planner._dead_end(root, root, DEFAULT_HORIZON)
 
 
