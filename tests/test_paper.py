@@ -115,3 +115,14 @@ def test_bench_rejects_unknown_instance() -> None:
     result = tandem("bench", "--only", "paper-99")
     assert result.returncode == 2
     assert "unknown instance paper-99" in result.stderr
+
+
+@pytest.mark.parametrize("name", PAPER_NAMES)
+def test_every_paper_instance_plans_and_passes_the_audit(name: str) -> None:
+    from planner.audit import audit
+    from planner.planning import plan_scenario
+
+    scenario = load_scenario(PAPER_DIR / f"{name}.toml")
+    plan = plan_scenario(scenario, workers=1).plan
+    assert audit(plan.doc) == []
+    assert plan.stats["L"] >= 2 and plan.stats["K"] >= 1  # contingencies, and help asked
