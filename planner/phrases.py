@@ -14,8 +14,27 @@ def _the(part: str) -> str:
     return f"the {part}"
 
 
-def say(action: str) -> str:
+TERSE = {
+    "confirmAttach": "Attaching the {0} to the {1}?",
+    "askHelp": "Please help: the {0} onto the {1}?",
+    "offerHelp": "The {0} is sharp. Shall I?",
+    "requestToUnhold": "Please put the {0} down.",
+    "requestToAttach": "Please attach the {0} to the {1}.",
+}
+
+
+def say(action: str, verbosity: str = "normal", reason: str = "") -> str:
+    """The sentence spoken; `terse` is short, `chatty` adds the reason."""
     name, args = _args(action)
+    if verbosity == "terse" and name in TERSE:
+        return TERSE[name].format(*args)
+    sentence = _say_normal(name, args, action)
+    if verbosity == "chatty" and reason:
+        return f"{sentence} ({reason})"
+    return sentence
+
+
+def _say_normal(name: str, args: list[str], action: str) -> str:
     if name == "confirmAttach":
         p, q = args
         return f"I see you are holding {_the(p)}. Are you going to attach it to {_the(q)}?"

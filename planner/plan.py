@@ -91,6 +91,7 @@ def build_plan(
 ) -> Plan:
     ids = _number(nodes, root)
     fact_set = frozenset(facts)
+    verbosity = next((f[len("verbosity(") : -1] for f in facts if f.startswith("verbosity(")), "")
     out: dict[str, dict[str, Any]] = {}
     for state, node_id in ids.items():
         node = nodes[state]
@@ -103,8 +104,8 @@ def build_plan(
         if node.expected is not None:
             entry["expected"] = node.expected
         if node.kind == "communication" and node.action is not None:
-            entry["say"] = phrases.say(node.action)
             entry["why"] = phrases.why(node.action, state, fact_set)
+            entry["say"] = phrases.say(node.action, verbosity, entry["why"])
         out[node_id] = entry
     doc: dict[str, Any] = {
         "format": FORMAT,

@@ -123,3 +123,13 @@ def test_requests(bs) -> None:  # type: ignore[no-untyped-def]
             "humanHoldingPart(leg2)",
         }
     }
+
+
+def test_verbosity_shapes_what_the_robot_says() -> None:
+    from planner import phrases
+
+    terse = phrases.say("askHelp(leg2,top)", "terse")
+    normal = phrases.say("askHelp(leg2,top)", "normal")
+    chatty = phrases.say("askHelp(leg2,top)", "chatty", "No arm can reach leg2.")
+    assert len(terse) < len(normal) < len(chatty)
+    assert "leg2" in terse and chatty.endswith("(No arm can reach leg2.)")
