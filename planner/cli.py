@@ -13,7 +13,7 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
-from planner import cli_bench, cli_plan, cli_scenario
+from planner import cli_bench, cli_feasibility, cli_plan, cli_scenario
 from planner.scenario import ScenarioError
 
 Register = Callable[[argparse.ArgumentParser], None]
@@ -23,6 +23,7 @@ SUBCOMMANDS: list[tuple[str, str, Register]] = [
     ("plan", "plan every contingency of a scenario", cli_plan.register_plan),
     ("check", "audit a plan file by re-simulating every branch", cli_plan.register_check),
     ("bench", "plan and audit the paper's benchmark instances", cli_bench.register),
+    ("feasibility", "which arm reaches which part, by geometry", cli_feasibility.register),
 ]
 
 

@@ -1,0 +1,107 @@
+"""Joint-space paths with OMPL (PyPI `ompl` 2.0.1, nanobind bindings).
+
+Binding traps (field notes): the validity callback must return a Python `bool`;
+states are read by index (`list(state)` never ends); `bool(status)` is true for an
+approximate solution too, so only `haveExactSolutionPath()` counts.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+Config = list[float]
+RESOLUTION = 0.002  # fraction of the space's extent between checked states (~0.025 rad)
+PATH_STEP = 0.05  # radians, largest joint change between consecutive returned states
+
+_seeded = False
+
+
+def seed_ompl(seed: int) -> None:
+    """Fix OMPL's global seed once per process, before any of its RNGs exist.
+
+    OMPL seeds each planner's RNG from one global sequence, so with the seed fixed the
+    answers depend only on the order of queries, which `reachability_table` fixes.
+    """
+    global _seeded
+    if not _seeded:
+        ou.RNG.setSeed(seed + 1)  # OMPL replaces 0 by 1 with a warning
+        ou.setLogLevel(ou.LogLevel.LOG_ERROR)  # "approximate solution" chatter otherwise
+        _seeded = True
+
+
+def plan_path(
+    valid: Callable[[Config], bool],
+    start: Sequence[float],
+    goal: Sequence[float],
+    lower: Sequence[float],
+    upper: Sequence[float],
+    *,
+    planner: str = "RRTConnect",
+    time_limit: float = 1.0,
+) -> list[Config] | None:
+    """A collision-free path from `start` to `goal` inside the joint limits, or None.
+
+    The straight segment is tried first (most queries on an open bench need nothing
+    more); then RRTConnect, or RRTstar stopped at its first solution.
+    """
+    n = len(start)
+    space = ob.RealVectorStateSpace(n)
+    bounds = ob.RealVectorBounds(n)
+    for i in range(n):
+        bounds.setLow(i, float(lower[i]))
+        bounds.setHigh(i, float(upper[i]))
+    space.setBounds(bounds)
+    ss = og.SimpleSetup(space)
+
+    def checker(state: ob.State) -> bool:
+        return bool(valid([float(state[i]) for i in range(n)]))
+
+    ss.setStateValidityChecker(checker)
+    si = ss.getSpaceInformation()
+    si.setStateValidityCheckingResolution(RESOLUTION)
+    si.setup()  # ss.setup() here would crash: it needs a start and goal first
+    a, b = si.allocState(), si.allocState()
+    for i in range(n):
+        a[i] = float(start[i])
+        b[i] = float(goal[i])
+    if not (si.isValid(a) and si.isValid(b)):
+        return None
+    if si.checkMotion(a, b):
+        return _densify([list(map(float, start)), list(map(float, goal))])
+    ss.setStartAndGoalStates(a, b)
+    if planner == "RRTstar":
+        rrt = og.RRTstar(si)
+        objective = ob.PathLengthOptimizationObjective(si)
+        # An infinite threshold: any solution satisfies it, so the planner stops at the
+        # first one instead of optimising until the time limit.
+        objective.setCostThreshold(ob.Cost(math.inf))
+        ss.setOptimizationObjective(objective)
+        ss.setPlanner(rrt)
+    elif planner == "RRTConnect":
+        ss.setPlanner(og.RRTConnect(si))
+    else:
+        raise ValueError(f"unknown planner {planner!r}: expected RRTConnect or RRTstar")
+    ss.solve(time_limit)
+    if not ss.haveExactSolutionPath():
+        return None
+    ss.simplifySolution(min(0.2, time_limit))
+    path = ss.getSolutionPath()
+    states = [[float(path.getState(k)[i]) for i in range(n)] for k in range(path.getStateCount())]
+    return _densify(states)
+
+
+def _densify(states: list[Config]) -> list[Config]:
+    """Insert straight-line states so no joint moves more than PATH_STEP per step."""
+    out = [states[0]]
+    for p, q in zip(states, states[1:], strict=False):
+        steps = max(1, math.ceil(max(abs(x - y) for x, y in zip(p, q, strict=True)) / PATH_STEP))
+        out.extend(
+            [x + (y - x) * k / steps for x, y in zip(p, q, strict=True)]
+            for k in range(1, steps + 1)
+        )
+    return out

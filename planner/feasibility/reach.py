@@ -1,0 +1,235 @@
+"""Can an arm reach a part? IK for a top-down grasp, then a collision-free path (OMPL).
+
+One `World` owns one pybullet DIRECT client with Baxter, the bench and the parts;
+`check_reach(arm, part)` answers with a reason, so "no" is explainable: the target is
+out of the arm's workspace ("no IK"), every way of reaching it hits something ("IK in
+collision"), or no path from home was found within the time limit ("no path").
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import zlib
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from planner.feasibility._bullet import pb
+from planner.feasibility.motion import plan_path, seed_ompl
+from planner.feasibility.robot import ARMS, HOME, Robot, load_robot
+from planner.feasibility.scene import PartBox, Scene, build_scene
+from planner.scenario_model import Scenario
+
+Reason = Literal["ok", "no IK", "IK in collision", "no path"]
+PlannerName = Literal["RRTConnect", "RRTstar"]
+
+GRASP_CLEARANCE = 0.02  # gripper endpoint this far above the part's top face
+POS_TOL = 0.01  # metres, IK accepted only within this by forward kinematics
+ORN_TOL = 0.10  # radians
+IK_ATTEMPTS = 12
+IK_GIVE_UP_AFTER = 4  # attempts; if none came within IK_HOPELESS the target is out of reach
+IK_HOPELESS = 0.05  # metres
+GOALS_WANTED = 3  # collision-free IK goals to try paths to
+
+
+@dataclass(frozen=True)
+class ReachResult:
+    reachable: bool
+    reason: Reason
+    seconds: float
+    path: list[list[float]] | None  # joint configurations from home to the grasp
+
+
+class World:
+    """Baxter, bench and parts of one scenario in a private pybullet client."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        *,
+        planner: PlannerName = "RRTConnect",
+        time_limit: float = 1.0,
+        seed: int = 0,
+    ) -> None:
+        seed_ompl(seed)
+        self.seed = seed
+        self.planner = planner
+        self.time_limit = time_limit
+        self.client = pb.connect(pb.DIRECT)
+        self.robot: Robot = load_robot(self.client, scenario.robot.base_pose)
+        self.scene: Scene = build_scene(self.client, scenario)
+        self._body_part = {b: pid for pid, b in self.scene.bodies.items()}
+        self._reach_radius = {a: self._arm_length(a) for a in ARMS}
+        self._moving = self.robot.arm_links["left"] | self.robot.arm_links["right"]
+
+    def close(self) -> None:
+        if pb.isConnected(self.client):
+            pb.disconnect(self.client)
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- collision checking -------------------------------------------------
+
+    def is_valid(self, arm: str, q: list[float], target: str | None = None) -> bool:
+        """`arm` at `q`, the other arm at home: no self-contact, no contact with the
+        bench or a part, except the gripper touching `target` (the part it grasps)."""
+        self.robot.set_arm(arm, q)
+        pb.performCollisionDetection(physicsClientId=self.client)
+        body = self.robot.body
+        for c in pb.getContactPoints(bodyA=body, physicsClientId=self.client):
+            if c[1] == body and c[2] == body:
+                return False  # self-collision that survived the filter
+            link, other = (c[3], c[2]) if c[1] == body else (c[4], c[1])
+            if link not in self._moving:
+                continue  # pedestal or torso resting near the bench: not a motion problem
+            if (
+                target is not None
+                and self._body_part.get(other) == target
+                and link in self.robot.gripper_links[arm]
+            ):
+                continue
+            return False
+        return True
+
+    # -- the query -----------------------------------------------------------
+
+    def check_reach(self, arm: str, part: str) -> ReachResult:
+        start = time.perf_counter()
+        self.robot.go_home()
+        box = self.scene.parts[part]
+        rng = np.random.default_rng([self.seed, zlib.crc32(f"{arm}/{part}".encode())])
+        goals, found_ik = self._ik_goals(arm, box, rng)
+        self.robot.go_home()
+        if not goals:
+            reason: Reason = "IK in collision" if found_ik else "no IK"
+            return ReachResult(False, reason, time.perf_counter() - start, None)
+        for goal in goals:
+            path = plan_path(
+                lambda q: self.is_valid(arm, q, part),
+                HOME[arm],
+                goal,
+                self.robot.lower[arm],
+                self.robot.upper[arm],
+                planner=self.planner,
+                time_limit=self.time_limit,
+            )
+            if path is not None:
+                self.robot.go_home()
+                return ReachResult(True, "ok", time.perf_counter() - start, path)
+        self.robot.go_home()
+        return ReachResult(False, "no path", time.perf_counter() - start, None)
+
+    # -- inverse kinematics --------------------------------------------------
+
+    def grasp_poses(self, box: PartBox) -> list[tuple[list[float], list[float]]]:
+        """Top-down grasps over the part's centre, fingers closing across its short side
+        (they close along the gripper's y axis); the two yaws are the symmetric grasps."""
+        yaw = box.yaw + (0.0 if box.size[0] >= box.size[1] else math.pi / 2)
+        pos = [box.x, box.y, box.top_z + GRASP_CLEARANCE]
+        return [
+            (pos, list(pb.getQuaternionFromEuler([math.pi, 0.0, yaw + k * math.pi])))
+            for k in (0, 1)
+        ]
+
+    def _ik_goals(
+        self, arm: str, box: PartBox, rng: np.random.Generator
+    ) -> tuple[list[list[float]], bool]:
+        """Collision-free IK solutions (up to GOALS_WANTED) and whether any accurate
+        solution existed at all (to tell "no IK" from "IK in collision")."""
+        goals: list[list[float]] = []
+        found = False
+        shoulder = self._shoulder(arm)
+        poses = self.grasp_poses(box)
+        if min(math.dist(shoulder, p) for p, _ in poses) > self._reach_radius[arm]:
+            return goals, found  # farther than the arm stretched straight: skip IK
+        lo, hi = np.array(self.robot.lower[arm]), np.array(self.robot.upper[arm])
+        best = math.inf
+        for attempt in range(IK_ATTEMPTS):
+            seed_q = HOME[arm] if attempt == 0 else list(map(float, rng.uniform(lo, hi)))
+            for pos, orn in poses:
+                q, pos_err, ok = self._solve_ik(arm, pos, orn, seed_q)
+                best = min(best, pos_err)
+                if not ok:
+                    continue
+                found = True
+                if self.is_valid(arm, q, box.id) and not any(
+                    max(abs(a - b) for a, b in zip(q, g, strict=True)) < 1e-3 for g in goals
+                ):
+                    goals.append(q)
+            if len(goals) >= GOALS_WANTED:
+                break
+            if attempt + 1 >= IK_GIVE_UP_AFTER and not found and best > IK_HOPELESS:
+                break  # every seed ends far from the target: it is out of reach
+        return goals, found
+
+    def _solve_ik(
+        self, arm: str, pos: list[float], orn: list[float], seed_q: list[float]
+    ) -> tuple[list[float], float, bool]:
+        """pybullet IK from `seed_q`, refined a few times; checked by forward kinematics
+        because pybullet checks only position and does not enforce joint limits."""
+        r = self.robot
+        r.set_arm(arm, seed_q)
+        idx = [r.movable.index(j) for j in r.arm_joints[arm]]
+        lower = [pb.getJointInfo(r.body, j, physicsClientId=self.client)[8] for j in r.movable]
+        upper = [pb.getJointInfo(r.body, j, physicsClientId=self.client)[9] for j in r.movable]
+        q = list(seed_q)
+        rest = [0.0] * len(r.movable)
+        pos_err = orn_err = math.inf
+        for _ in range(4):
+            sol = pb.calculateInverseKinematics(
+                r.body,
+                r.end_effector[arm],
+                pos,
+                orn,
+                lowerLimits=lower,
+                upperLimits=upper,
+                jointRanges=[h - lo for lo, h in zip(lower, upper, strict=True)],
+                restPoses=rest,  # zero: seed-pulled or home-pulled rests found fewer
+                maxNumIterations=100,
+                residualThreshold=1e-5,
+                physicsClientId=self.client,
+            )
+            q = [float(sol[i]) for i in idx]
+            r.set_arm(arm, q)
+            pos_err, orn_err = self._pose_error(arm, pos, orn)
+            if pos_err < POS_TOL / 5 and orn_err < ORN_TOL / 5:
+                break
+        ok = pos_err < POS_TOL and orn_err < ORN_TOL and r.within_limits(arm, q)
+        return q, pos_err, ok
+
+    def _pose_error(self, arm: str, pos: list[float], orn: list[float]) -> tuple[float, float]:
+        state = pb.getLinkState(
+            self.robot.body,
+            self.robot.end_effector[arm],
+            computeForwardKinematics=True,
+            physicsClientId=self.client,
+        )
+        dot = abs(sum(a * b for a, b in zip(state[5], orn, strict=True)))
+        return math.dist(state[4], pos), 2 * math.acos(min(1.0, dot))
+
+    def _shoulder(self, arm: str) -> tuple[float, float, float]:
+        s1 = self.robot.arm_joints[arm][1]
+        state = pb.getLinkState(self.robot.body, s1, physicsClientId=self.client)
+        return (float(state[4][0]), float(state[4][1]), float(state[4][2]))
+
+    def _arm_length(self, arm: str) -> float:
+        """Shoulder-to-endpoint distance with the arm stretched: nothing farther is reachable."""
+        self.robot.set_arm(arm, [0.0] * 7)
+        state = pb.getLinkState(
+            self.robot.body,
+            self.robot.end_effector[arm],
+            computeForwardKinematics=True,
+            physicsClientId=self.client,
+        )
+        length = math.dist(self._shoulder(arm), state[4]) + 0.01
+        self.robot.go_home()
+        return length
+
+
+__all__ = ["ReachResult", "World", "seed_ompl"]

@@ -1,0 +1,215 @@
+"""The real Baxter (from example-robot-data's data files) in a pybullet DIRECT client.
+
+The world frame is the bench frame of the scenario at the height of Baxter's base
+frame (the top of its pedestal, ~0.93 m above the floor), so the bench top sits at
+z = BENCH_TOP_Z and the robot base at `scenario.robot.base_pose` (x, y, yaw).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import tempfile
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+
+from planner.feasibility._bullet import pb, silenced
+
+ARMS = ("left", "right")
+JOINT_SUFFIXES = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
+# A common "untucked" Baxter pose: forearms down in front of the body, clear of the
+# bench and of each other, so every query starts from a collision-free configuration.
+HOME = {
+    "left": [0.0, -0.55, 0.0, 0.75, 0.0, 1.26, 0.0],
+    "right": [0.0, -0.55, 0.0, 0.75, 0.0, 1.26, 0.0],
+}
+_URDF_IN_PREFIX = "example-robot-data/robots/baxter_description/urdf/baxter.urdf"
+# Crude implicit cylinders overlap when the elbow bends (field notes): shoulder vs
+# upper elbow, upper elbow vs upper forearm (past e1 ~2.1 rad), plus their "_visual"
+# twins, which carry collision shapes too.
+_CRUDE_PAIRS = (
+    ("{a}_upper_shoulder", "{a}_upper_elbow"),
+    ("{a}_upper_shoulder", "{a}_upper_elbow_visual"),
+    ("{a}_upper_elbow", "{a}_upper_forearm"),
+    ("{a}_upper_elbow", "{a}_upper_forearm_visual"),
+    ("{a}_upper_elbow_visual", "{a}_upper_forearm"),
+    ("{a}_upper_elbow_visual", "{a}_upper_forearm_visual"),
+    ("{a}_lower_elbow", "{a}_upper_forearm_visual"),
+    ("{a}_upper_elbow_visual", "{a}_lower_elbow"),
+    # The torso's collision mesh becomes its convex hull in pybullet: a slab out to the
+    # arm mounts (y +/-0.34, x up to 0.20) that the upper elbow grazes whenever the arm
+    # reaches across the front. Forearms and hands are still checked against it.
+    ("{a}_upper_elbow", "torso"),
+    ("{a}_upper_elbow_visual", "torso"),
+)
+
+
+class RobotModelMissing(RuntimeError):
+    """example-robot-data is not installed, so there is no Baxter to load."""
+
+
+def share_dir() -> Path:
+    """`<site-packages>/cmeel.prefix/share`, found through the installed distribution."""
+    try:
+        dist = metadata.distribution("example-robot-data")
+    except metadata.PackageNotFoundError:
+        raise RobotModelMissing("pip install example-robot-data (only its data is used)") from None
+    share = Path(str(dist.locate_file("cmeel.prefix/share")))
+    if not (share / _URDF_IN_PREFIX).is_file():
+        raise RobotModelMissing(f"no {_URDF_IN_PREFIX} under {share}")
+    return share
+
+
+def baxter_urdf() -> Path:
+    """A copy of baxter.urdf whose `package://` mesh names are absolute paths.
+
+    pybullet cannot resolve ROS package URLs; the copy lives in the temp dir, keyed by
+    the source path and contents so a reinstall or another venv never reuses it.
+    """
+    share = share_dir()
+    text = (share / _URDF_IN_PREFIX).read_text()
+    key = hashlib.sha256((str(share) + text).encode()).hexdigest()[:16]
+    out = Path(tempfile.gettempdir()) / f"tandem-baxter-{key}.urdf"
+    if not out.is_file():
+        tmp = out.with_suffix(".tmp")
+        tmp.write_text(text.replace("package://", f"{share}/"))
+        tmp.replace(out)  # atomic, so parallel workers never read half a file
+    return out
+
+
+@dataclass
+class Robot:
+    """A loaded Baxter: body id, joint indices and limits of each arm."""
+
+    client: int
+    body: int
+    link: dict[str, int]  # link name -> link index (the base link is -1)
+    arm_joints: dict[str, list[int]]
+    lower: dict[str, list[float]]
+    upper: dict[str, list[float]]
+    end_effector: dict[str, int]  # the "<arm>_gripper" endpoint link
+    movable: list[int]  # joint indices in the order IK results come back
+    gripper_links: dict[str, set[int]] = field(default_factory=dict)
+    arm_links: dict[str, set[int]] = field(default_factory=dict)
+
+    def set_arm(self, arm: str, q: list[float]) -> None:
+        pb.resetJointStatesMultiDof(
+            self.body,
+            self.arm_joints[arm],
+            [[v] for v in q],
+            physicsClientId=self.client,
+        )
+
+    def get_arm(self, arm: str) -> list[float]:
+        states = pb.getJointStates(self.body, self.arm_joints[arm], physicsClientId=self.client)
+        return [float(s[0]) for s in states]
+
+    def go_home(self) -> None:
+        for arm in ARMS:
+            self.set_arm(arm, HOME[arm])
+
+    def within_limits(self, arm: str, q: list[float], tol: float = 1e-6) -> bool:
+        lo, hi = self.lower[arm], self.upper[arm]
+        return all(lo[i] - tol <= v <= hi[i] + tol for i, v in enumerate(q))
+
+    def self_collision(self) -> bool:
+        """True if two robot links touch (disabled pairs excepted); call after detection."""
+        return bool(
+            pb.getContactPoints(bodyA=self.body, bodyB=self.body, physicsClientId=self.client)
+        )
+
+
+def load_robot(client: int, base_pose: list[float]) -> Robot:
+    """Load Baxter with a fixed base at (x, y, yaw) and filter its harmless self-contacts."""
+    flags = (
+        pb.URDF_USE_SELF_COLLISION
+        | pb.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT
+        | pb.URDF_USE_IMPLICIT_CYLINDER
+        | pb.URDF_IGNORE_VISUAL_SHAPES  # 0.06 s instead of 1.2 s; nothing is rendered
+    )
+    x, y, yaw = base_pose
+    urdf = str(baxter_urdf())
+    with silenced():  # "No inertial data" warnings for the massless frames
+        body = pb.loadURDF(
+            urdf,
+            basePosition=[x, y, 0.0],
+            baseOrientation=pb.getQuaternionFromEuler([0.0, 0.0, yaw]),
+            useFixedBase=True,
+            flags=flags,
+            physicsClientId=client,
+        )
+    link: dict[str, int] = {pb.getBodyInfo(body, physicsClientId=client)[0].decode(): -1}
+    joint: dict[str, int] = {}
+    movable: list[int] = []
+    lower: dict[str, float] = {}
+    upper: dict[str, float] = {}
+    for j in range(pb.getNumJoints(body, physicsClientId=client)):
+        info = pb.getJointInfo(body, j, physicsClientId=client)
+        name, jtype, child = info[1].decode(), info[2], info[12].decode()
+        link[child] = j
+        joint[name] = j
+        lower[name], upper[name] = float(info[8]), float(info[9])
+        if jtype != pb.JOINT_FIXED:
+            movable.append(j)
+    arm_joints = {a: [joint[f"{a}_{s}"] for s in JOINT_SUFFIXES] for a in ARMS}
+    robot = Robot(
+        client=client,
+        body=body,
+        link=link,
+        arm_joints=arm_joints,
+        lower={a: [lower[f"{a}_{s}"] for s in JOINT_SUFFIXES] for a in ARMS},
+        upper={a: [upper[f"{a}_{s}"] for s in JOINT_SUFFIXES] for a in ARMS},
+        end_effector={a: link[f"{a}_gripper"] for a in ARMS},
+        movable=movable,
+    )
+    for a in ARMS:
+        side = a[0]
+        # Everything distal to the wrist: these may touch the part being grasped.
+        prefixes = (f"{side}_gripper", f"{a}_hand", f"{a}_gripper")
+        robot.gripper_links[a] = {i for n, i in link.items() if n.startswith(prefixes)}
+        # Links that move with the arm: only these can newly hit the bench or a part.
+        robot.arm_links[a] = _descendants(body, client, arm_joints[a][0])
+    _disable_harmless_pairs(robot)
+    robot.go_home()
+    return robot
+
+
+def _descendants(body: int, client: int, root: int) -> set[int]:
+    parent = {
+        j: pb.getJointInfo(body, j, physicsClientId=client)[16]
+        for j in range(pb.getNumJoints(body, physicsClientId=client))
+    }
+    out = {root}
+    changed = True
+    while changed:
+        changed = False
+        for j, p in parent.items():
+            if p in out and j not in out:
+                out.add(j)
+                changed = True
+    return out
+
+
+def _disable_harmless_pairs(robot: Robot) -> None:
+    """Pairs touching at home (and at the all-zero pose) are modelling artefacts."""
+    pairs: set[tuple[int, int]] = set()
+    for pose in (HOME, {a: [0.0] * 7 for a in ARMS}):
+        for a in ARMS:
+            robot.set_arm(a, pose[a])
+        pb.performCollisionDetection(physicsClientId=robot.client)
+        for c in pb.getContactPoints(
+            bodyA=robot.body, bodyB=robot.body, physicsClientId=robot.client
+        ):
+            pairs.add((c[3], c[4]))
+    for a in ARMS:
+        for left, right in _CRUDE_PAIRS:
+            l_name, r_name = left.format(a=a), right.format(a=a)
+            if l_name in robot.link and r_name in robot.link:
+                pairs.add((robot.link[l_name], robot.link[r_name]))
+    for i, j in pairs:
+        pb.setCollisionFilterPair(robot.body, robot.body, i, j, 0, physicsClientId=robot.client)
+
+
+def yaw_to_quat(yaw: float) -> list[float]:
+    return [0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)]

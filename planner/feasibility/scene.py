@@ -1,0 +1,147 @@
+"""The bench and the parts as pybullet boxes, from a scenario.
+
+Coordinates: x along the bench away from the robot (the regions' extents), y across
+it, z up with 0 at the robot's base frame; the bench top is at BENCH_TOP_Z. Missing
+geometry gets the defaults of the field notes, so every valid scenario has a scene.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from planner.feasibility._bullet import pb
+from planner.scenario_model import Part, Scenario
+
+BENCH_TOP_Z = -0.05  # Baxter's base frame is ~0.93 m up; the bench top ~0.88 m
+BENCH_THICKNESS = 0.04
+BENCH_HALF_WIDTH = 0.70  # across the bench (y), metres
+# Extents along x measured in the field notes; used when a region has no `x`.
+DEFAULT_REGION_X = {
+    "robotOnly": (0.30, 0.65),
+    "shared": (0.65, 1.00),
+    "humanOnly": (1.00, 1.40),
+}
+# Legs lie across the bench (long along y) so they fit a 0.35 m deep region.
+DEFAULT_SIZE = {
+    "top": (0.30, 0.50, 0.03),
+    "leg": (0.05, 0.35, 0.05),
+    "foot": (0.08, 0.08, 0.04),
+    "other": (0.10, 0.10, 0.05),
+}
+_GAP = 0.05  # between default-placed parts
+
+
+@dataclass(frozen=True)
+class PartBox:
+    id: str
+    x: float
+    y: float
+    yaw: float
+    size: tuple[float, float, float]
+    region: str
+
+    @property
+    def top_z(self) -> float:
+        return BENCH_TOP_Z + self.size[2]
+
+
+@dataclass
+class Scene:
+    client: int
+    bench: int
+    parts: dict[str, PartBox]
+    bodies: dict[str, int]  # part id -> pybullet body
+
+
+def region_extents(scenario: Scenario) -> dict[str, tuple[float, float]]:
+    """Each region's x extent: its own, the field-notes default, or the next free slot."""
+    out: dict[str, tuple[float, float]] = {}
+    for r in scenario.regions:
+        if r.x is not None:
+            out[r.id] = (min(r.x), max(r.x))
+        elif r.id in DEFAULT_REGION_X:
+            out[r.id] = DEFAULT_REGION_X[r.id]
+    for r in scenario.regions:
+        if r.id not in out:
+            start = max((hi for _, hi in out.values()), default=0.30)
+            out[r.id] = (start, start + 0.35)
+    return out
+
+
+def part_boxes(scenario: Scenario) -> dict[str, PartBox]:
+    """Parts with a pose keep it; the others fill a grid inside their region, in file order."""
+    extents = region_extents(scenario)
+    boxes: dict[str, PartBox] = {}
+    unplaced: dict[str, list[Part]] = {}
+    for p in scenario.parts:
+        size = _size(p)
+        if p.pose is not None:
+            boxes[p.id] = PartBox(p.id, p.pose[0], p.pose[1], p.pose[2], size, p.region)
+        else:
+            unplaced.setdefault(p.region, []).append(p)
+    for region, parts in unplaced.items():
+        lo, hi = extents[region]
+        boxes.update(_grid(parts, lo, hi))
+    return boxes
+
+
+def _size(p: Part) -> tuple[float, float, float]:
+    if p.size is not None:
+        return (p.size[0], p.size[1], p.size[2])
+    return DEFAULT_SIZE[p.kind]
+
+
+def _grid(parts: list[Part], lo: float, hi: float) -> dict[str, PartBox]:
+    # Cells as large as the largest footprint; as many rows along x as fit, then
+    # columns across the bench centred on y = 0, filled row by row.
+    cell_x = max(_size(p)[0] for p in parts) + _GAP
+    cell_y = max(_size(p)[1] for p in parts) + _GAP
+    rows = max(1, min(len(parts), int((hi - lo) // cell_x)))
+    cols = math.ceil(len(parts) / rows)
+    out: dict[str, PartBox] = {}
+    for i, p in enumerate(parts):
+        row, col = divmod(i, cols)
+        x = lo + (hi - lo) * (row + 0.5) / rows
+        y = (col - (cols - 1) / 2) * cell_y
+        out[p.id] = PartBox(p.id, x, y, 0.0, _size(p), p.region)
+    return out
+
+
+def build_scene(client: int, scenario: Scenario) -> Scene:
+    extents = region_extents(scenario)
+    x_lo = min(lo for lo, _ in extents.values())
+    x_hi = max(hi for _, hi in extents.values())
+    bench = _box(
+        client,
+        ((x_lo + x_hi) / 2, 0.0, BENCH_TOP_Z - BENCH_THICKNESS / 2),
+        0.0,
+        (x_hi - x_lo, 2 * BENCH_HALF_WIDTH, BENCH_THICKNESS),
+    )
+    parts = part_boxes(scenario)
+    bodies = {
+        pid: _box(client, (b.x, b.y, BENCH_TOP_Z + b.size[2] / 2), b.yaw, b.size)
+        for pid, b in parts.items()
+    }
+    return Scene(client=client, bench=bench, parts=parts, bodies=bodies)
+
+
+def _box(
+    client: int,
+    center: tuple[float, float, float],
+    yaw: float,
+    size: tuple[float, float, float],
+) -> int:
+    shape = pb.createCollisionShape(
+        pb.GEOM_BOX, halfExtents=[s / 2 for s in size], physicsClientId=client
+    )
+    # Mass 0: static, so nothing falls while collisions are queried.
+    return int(
+        pb.createMultiBody(
+            baseMass=0.0,
+            baseCollisionShapeIndex=shape,
+            basePosition=list(center),
+            baseOrientation=pb.getQuaternionFromEuler([0.0, 0.0, yaw]),
+            physicsClientId=client,
+        )
+    )

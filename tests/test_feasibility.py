@@ -1,0 +1,184 @@
+"""Geometric feasibility with the real Baxter (example-robot-data), pybullet and OMPL."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from planner.cli import main
+from planner.feasibility import ReachResult, World, reachability_table, reachable_pairs
+from planner.feasibility.motion import plan_path
+from planner.feasibility.robot import HOME
+from planner.feasibility.scene import part_boxes, region_extents
+from planner.scenario import load_scenario, parse_scenario
+from planner.scenario_model import Scenario
+
+DEFAULT = Path(__file__).resolve().parent.parent / "static" / "scenarios" / "default.toml"
+FINE_STEP = 0.005  # radians: 10x finer than the returned path's spacing
+
+
+@pytest.fixture(scope="module")
+def scenario() -> Scenario:
+    return load_scenario(DEFAULT)
+
+
+@pytest.fixture(scope="module")
+def table(scenario: Scenario) -> dict[tuple[str, str], ReachResult]:
+    return reachability_table(scenario)
+
+
+@pytest.fixture(scope="module")
+def world(scenario: Scenario) -> Iterator[World]:
+    with World(scenario) as w:
+        yield w
+
+
+def test_table_covers_every_arm_and_part(
+    scenario: Scenario, table: dict[tuple[str, str], ReachResult]
+) -> None:
+    expected = {(m, p.id) for m in scenario.robot.manipulators for p in scenario.parts}
+    assert set(table) == expected
+    for result in table.values():
+        assert (result.path is not None) == result.reachable == (result.reason == "ok")
+        assert result.seconds >= 0
+
+
+def test_robot_only_part_is_reachable(
+    scenario: Scenario, table: dict[tuple[str, str], ReachResult]
+) -> None:
+    assert scenario.part("leg1").region == "robotOnly"
+    assert any(table[(arm, "leg1")].reachable for arm in ("left", "right"))
+
+
+def test_human_only_part_is_out_of_reach(
+    scenario: Scenario, table: dict[tuple[str, str], ReachResult]
+) -> None:
+    # 1.2 m out is beyond the stretched arm, so IK is not even tried.
+    assert scenario.part("leg2").region == "humanOnly"
+    for arm in ("left", "right"):
+        assert table[(arm, "leg2")].reason == "no IK"
+        assert not table[(arm, "leg2")].reachable
+
+
+def test_paths_are_collision_free_at_fine_resolution(
+    world: World, table: dict[tuple[str, str], ReachResult]
+) -> None:
+    checked = 0
+    for (arm, part), result in table.items():
+        if result.path is None:
+            continue
+        path = result.path
+        assert path[0] == pytest.approx(HOME[arm])
+        for q in path:
+            assert world.robot.within_limits(arm, q)
+        for a, b in zip(path, path[1:], strict=False):
+            jump = max(abs(x - y) for x, y in zip(a, b, strict=True))
+            steps = max(1, math.ceil(jump / FINE_STEP))
+            for k in range(steps + 1):
+                q = [x + (y - x) * k / steps for x, y in zip(a, b, strict=True)]
+                assert world.is_valid(arm, q, part), (arm, part, q)
+        checked += 1
+        # The last configuration really puts the gripper over the part, pointing down.
+        world.robot.set_arm(arm, path[-1])
+        pos, orn = world.grasp_poses(world.scene.parts[part])[0]
+        assert world._pose_error(arm, pos, orn)[0] < 0.01
+        world.robot.go_home()
+    assert checked >= 2
+
+
+def test_reasons_are_deterministic(
+    scenario: Scenario, table: dict[tuple[str, str], ReachResult]
+) -> None:
+    again = reachability_table(scenario)
+    assert {k: r.reason for k, r in again.items()} == {k: r.reason for k, r in table.items()}
+    assert reachable_pairs(again) == reachable_pairs(table)
+
+
+def test_rrtstar_is_selectable(scenario: Scenario) -> None:
+    with World(scenario, planner="RRTstar") as w:
+        result = w.check_reach("right", "leg1")
+    assert result.reachable and result.path is not None
+
+
+# A foot buried in a tall crate: the arm can get there, but only through the crate.
+BURIED = """
+name = "buried"
+[[regions]]
+id = "robotOnly"
+x = [0.30, 0.65]
+human_reach = false
+[[parts]]
+id = "leg1"
+kind = "leg"
+length = "tall"
+shape = "square"
+region = "robotOnly"
+pose = [0.45, -0.3, 0.0]
+[[parts]]
+id = "foot1"
+kind = "foot"
+shape = "square"
+region = "robotOnly"
+pose = [0.45, 0.3, 0.0]
+[[parts]]
+id = "crate"
+kind = "other"
+class = "crate"
+region = "robotOnly"
+pose = [0.45, 0.3, 0.0]
+size = [0.25, 0.25, 0.40]
+[goal]
+attachments = [["foot1", "leg1"]]
+"""
+
+
+def test_ik_in_collision_names_the_cause() -> None:
+    buried = parse_scenario(BURIED, "buried.toml")
+    with World(buried) as w:
+        result = w.check_reach("left", "foot1")
+        assert (result.reachable, result.reason, result.path) == (False, "IK in collision", None)
+        assert w.check_reach("right", "leg1").reason == "ok"
+
+
+def test_base_pose_moves_the_robot(scenario: Scenario) -> None:
+    # Baxter rolled 0.6 m along the bench: the human-only leg comes within reach.
+    moved = scenario.model_copy(
+        update={"robot": scenario.robot.model_copy(update={"base_pose": [0.6, 0.0, 0.0]})}
+    )
+    with World(moved) as w:
+        assert any(w.check_reach(arm, "leg2").reachable for arm in ("left", "right"))
+
+
+def test_default_parts_fill_their_regions(scenario: Scenario) -> None:
+    extents = region_extents(scenario)
+    assert extents["robotOnly"] == (0.30, 0.65)
+    boxes = part_boxes(scenario)
+    for part in scenario.parts:
+        lo, hi = extents[part.region]
+        assert lo <= boxes[part.id].x <= hi
+    positions = [(b.x, b.y) for b in boxes.values()]
+    assert len(set(positions)) == len(positions)
+
+
+@pytest.mark.parametrize("planner", ["RRTConnect", "RRTstar"])
+def test_plan_path_goes_around_an_obstacle(planner: str) -> None:
+    # A wall at x in [0.4, 0.6] with a gap only at y > 0.8: the straight line is blocked.
+    def valid(q: list[float]) -> bool:
+        return not (0.4 <= q[0] <= 0.6 and q[1] < 0.8)
+
+    path = plan_path(
+        valid, [0.0, 0.0], [1.0, 0.0], [0.0, 0.0], [1.0, 1.0], planner=planner, time_limit=2.0
+    )
+    assert path is not None
+    assert path[0] == [0.0, 0.0] and path[-1] == pytest.approx([1.0, 0.0])
+    assert all(valid(q) for q in path)
+    assert plan_path(valid, [0.0, 0.0], [0.5, 0.0], [0.0, 0.0], [1.0, 1.0]) is None
+
+
+def test_cli_prints_every_pair(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["feasibility", str(DEFAULT)]) == 0
+    out = capsys.readouterr().out
+    assert "leg2" in out and "no IK" in out and "checks in" in out
