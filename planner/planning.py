@@ -36,6 +36,22 @@ def initial_state(scenario: Scenario) -> State:
     return frozenset() if can_pick else frozenset({"humanFree"})
 
 
+def feasible_pairs(scenario: Scenario) -> tuple[frozenset[tuple[str, str]], float]:
+    """(arm, part) pairs the robot can reach, and the seconds spent checking them.
+
+    Declared scenarios answer from their table; geometric ones ask the motion
+    planner once per pair, in the parent process, so workers share the answers.
+    """
+    if scenario.feasibility.source != "geometry":
+        return frozenset(scenario.reachable_pairs()), 0.0
+    # Imported here: pybullet and OMPL load only when geometry is asked for.
+    from planner.feasibility import reachability_table, reachable_pairs
+
+    t0 = time.perf_counter()
+    table = reachability_table(scenario)
+    return frozenset(reachable_pairs(table)), time.perf_counter() - t0
+
+
 def plan_scenario(
     scenario: Scenario,
     *,
@@ -50,7 +66,7 @@ def plan_scenario(
     another thread); `skip` leaves encoding concerns out (for ablation tests).
     """
     t0 = time.perf_counter()
-    reachable = frozenset(scenario.reachable_pairs())
+    reachable, checks_s = feasible_pairs(scenario)
     facts = scenario.facts(reachable)
     problem = Problem(
         facts=tuple(f for f in facts if not f.startswith("reachable(")),
@@ -79,6 +95,6 @@ def plan_scenario(
         scenario_sha256=scenario.sha256,
         facts=facts,
         plan_s=plan_s,
-        checks_s=0.0,
+        checks_s=checks_s,
     )
     return PlanResult(plan, first[0] if first else plan_s, planner.solves)

@@ -182,3 +182,17 @@ def test_cli_prints_every_pair(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["feasibility", str(DEFAULT)]) == 0
     out = capsys.readouterr().out
     assert "leg2" in out and "no IK" in out and "checks in" in out
+
+
+def test_planning_takes_feasibility_from_geometry_when_asked() -> None:
+    from planner.planning import feasible_pairs
+    from planner.scenario import parse_scenario
+
+    text = DEFAULT.read_text()
+    geometric = parse_scenario(text.replace('source = "declared"', 'source = "geometry"'), "g.toml")
+    pairs, seconds = feasible_pairs(geometric)
+    assert {("left", "leg1"), ("right", "leg1")} <= pairs
+    assert not {("left", "leg2"), ("right", "leg2")} & pairs
+    assert seconds > 0
+    declared, zero = feasible_pairs(parse_scenario(text, "d.toml"))
+    assert ("left", "top") in declared and zero == 0.0
