@@ -9,7 +9,7 @@ from pathlib import Path
 
 from planner.audit import audit, format_report
 from planner.hcp import DeadEnd, Progress
-from planner.plan import TABLE_HEADER, Plan, format_table, stats_row
+from planner.plan import TABLE_HEADER, format_table, stats_row
 from planner.planning import plan_scenario
 from planner.scenario import load_scenario
 
@@ -85,5 +85,3 @@ def run_check(args: argparse.Namespace) -> int:
     print(f"{args.plan}: {format_report(violations)}")
     return 1 if violations else 0
 
-
-__all__ = ["Plan", "register_check", "register_plan"]

@@ -170,6 +170,7 @@ class ConditionalPlanner:
         self.checks = 0
         self._cancel = threading.Event()
         self.root: State = frozenset()
+        self._pool: ProcessPoolExecutor | None = None
 
     def cancel(self) -> None:
         self._cancel.set()
@@ -250,7 +251,6 @@ class ConditionalPlanner:
                 fut.set_result(planner.branch(state, forbid))
                 return fut
 
-            self._pool: ProcessPoolExecutor | None = None
             return inline
         self._pool = ProcessPoolExecutor(
             max_workers=self.workers,
@@ -266,9 +266,9 @@ class ConditionalPlanner:
         return remote
 
     def _shutdown(self) -> None:
-        if getattr(self, "_pool", None) is not None:
-            assert self._pool is not None
+        if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
 
     # -- DAG maintenance
     def _node(self, state: State) -> DagNode:

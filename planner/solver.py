@@ -8,9 +8,8 @@ to list every outcome of an action. States are passed as assumptions on the
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import clingo
 
@@ -37,41 +36,34 @@ class Outcome:
 
 
 @dataclass
-class SolverStats:
-    solves: int = 0
-    transitions: int = 0
-    solve_s: float = 0.0
-    ground_s: float = 0.0
-
-
-@dataclass
 class BranchSolver:
     facts: Sequence[str]
     horizon: int
     context: FeasibilityContext
     skip: tuple[str, ...] = ()
     options: tuple[str, ...] = ()
-    stats: SolverStats = field(default_factory=SolverStats)
 
     def __post_init__(self) -> None:
-        t0 = time.perf_counter()
         self._plan_ctl = ground(
             self.facts, self.horizon, self.context, skip=self.skip, options=self.options
         )
-        step_skip = tuple(sorted({*self.skip, "goal", "preferences"}))
-        self._step_ctl = ground(self.facts, 1, self.context, skip=step_skip)
-        self._step_ctl.configuration.solve.models = 0  # type: ignore[union-attr]
         # Assumptions are passed as solver literals, looked up once: symbol
         # assumptions cost a symbol-table lookup each on every solve.
         self._fluents = _externals(self._plan_ctl, "init")
-        self._step_fluents = _externals(self._step_ctl, "init")
         self._forbid = _externals(self._plan_ctl, "forbid")
-        self._occ: dict[str, int | None] = {}
         self._kinds = _kinds(self._plan_ctl)
-        self.stats.ground_s += time.perf_counter() - t0
+        # The one-step program is grounded when first needed: solvers made for
+        # longer horizons only plan and never list outcomes.
+        self._step: tuple[clingo.Control, dict[str, int]] | None = None
+        self._occ: dict[str, int | None] = {}
 
-    def kind(self, action: str) -> str:
-        return self._kinds[action]
+    def _step_program(self) -> tuple[clingo.Control, dict[str, int]]:
+        if self._step is None:
+            step_skip = tuple(sorted({*self.skip, "goal", "preferences"}))
+            ctl = ground(self.facts, 1, self.context, skip=step_skip)
+            ctl.configuration.solve.models = 0  # type: ignore[union-attr]
+            self._step = (ctl, _externals(ctl, "init"))
+        return self._step
 
     def plan(self, state: State, forbid: Iterable[str] = ()) -> list[Step] | None:
         """An optimal sequential plan from `state` (outcomes chosen by the solver), or None."""
@@ -83,10 +75,7 @@ class BranchSolver:
         def on_model(model: clingo.Model) -> None:
             best[:] = model.symbols(shown=True)
 
-        t0 = time.perf_counter()
         result = self._plan_ctl.solve(assumptions=assumptions, on_model=on_model)
-        self.stats.solve_s += time.perf_counter() - t0
-        self.stats.solves += 1
         if not result.satisfiable:
             return None
         return self._steps(best)
@@ -96,7 +85,8 @@ class BranchSolver:
         occ = self._occ_literal(action)
         if occ is None:
             return []
-        assumptions = _assume(self._step_fluents, state)
+        step_ctl, step_fluents = self._step_program()
+        assumptions = _assume(step_fluents, state)
         assumptions.append(occ)
         found: list[Outcome] = []
 
@@ -110,10 +100,7 @@ class BranchSolver:
                     after.add(str(sym.arguments[0]))
             found.append(Outcome(label, frozenset(after)))
 
-        t0 = time.perf_counter()
-        self._step_ctl.solve(assumptions=assumptions, on_model=on_model)
-        self.stats.solve_s += time.perf_counter() - t0
-        self.stats.transitions += 1
+        step_ctl.solve(assumptions=assumptions, on_model=on_model)
         found.sort(key=lambda o: (o.label is None, o.label or ""))
         return found
 
@@ -121,7 +108,7 @@ class BranchSolver:
         """The literal of `occ(action,0)`; None if grounding found it never possible."""
         if action not in self._occ:
             sym = clingo.Function("occ", [clingo.parse_term(action), clingo.Number(0)])
-            atom = self._step_ctl.symbolic_atoms[sym]
+            atom = self._step_program()[0].symbolic_atoms[sym]
             self._occ[action] = atom.literal if atom is not None else None
         return self._occ[action]
 
