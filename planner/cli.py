@@ -3,7 +3,9 @@
 Each subcommand lives in its own module and is listed in `SUBCOMMANDS` as
 `(name, help, register)`: `register(parser)` adds its arguments and calls
 `parser.set_defaults(run=handler)`, where `handler(args) -> int` returns the
-exit code. A `ScenarioError` escaping any handler is printed as its one line
+exit code. `app.cli` extends the list with the commands that need the
+dashboard or the session store, so the planner imports nothing from `app`.
+A `ScenarioError` escaping any handler is printed as its one line
 with exit code 2, so no subcommand shows a traceback for a bad scenario.
 """
 
@@ -27,13 +29,15 @@ SUBCOMMANDS: list[tuple[str, str, Register]] = [
 ]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(
+    subcommands: Sequence[tuple[str, str, Register]] = SUBCOMMANDS,
+) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tandem", description="Hybrid conditional planner for human-robot table assembly."
     )
     parser.set_defaults(usage_of=parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, help_text, register in SUBCOMMANDS:
+    for name, help_text, register in subcommands:
         command = sub.add_parser(name, help=help_text, description=help_text)
         # So `tandem NAME` without its action shows NAME's own usage.
         command.set_defaults(usage_of=command)
@@ -41,8 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+def main(
+    argv: Sequence[str] | None = None,
+    subcommands: Sequence[tuple[str, str, Register]] = SUBCOMMANDS,
+) -> int:
+    parser = build_parser(subcommands)
     args = parser.parse_args(argv)
     run: Callable[[argparse.Namespace], int] | None = getattr(args, "run", None)
     if run is None:
