@@ -46,15 +46,19 @@ REGIONS = (
 )
 EXTENT = {rid: (x0, x1) for rid, x0, x1, _ in REGIONS}
 
-# A small model table: the top lies flat at the robot's end of the shared
-# region; legs stand upright, feet lie flat. Sizes are x, y, z extents.
-TOP_POSE = (0.825, -0.30, 0.0)
-TOP_SIZE = (0.30, 0.30, 0.02)
+# A small model table: the top lies flat in the middle of the shared region,
+# within both arms' top-down reach (x <= ~0.85 m, field notes); legs stand
+# upright, feet lie flat. Sizes are x, y, z extents.
+TOP_POSE = (0.78, 0.0, 0.0)
+TOP_SIZE = (0.20, 0.36, 0.02)
 LEG_SIZE = (0.04, 0.04, 0.20)
 FOOT_SIZE = (0.04, 0.04, 0.03)
 Y_RANGE = (-0.45, 0.45)
-# In the shared region the loose parts keep clear of the top (y <= -0.15).
-SHARED_Y_RANGE = (-0.10, 0.45)
+# Loose shared parts lie beside the top, alternately on the left arm's side (+y)
+# and the right arm's, in columns along x that each arm reaches from above.
+SHARED_X = (0.69, 0.76, 0.83)
+SHARED_Y0 = 0.28  # clear of the top's edge at 0.18
+SHARED_PITCH = 0.07
 MIN_PITCH = 0.08  # centre-to-centre spacing of parts placed side by side in x
 
 
@@ -121,8 +125,10 @@ def goal_attachments(family: str, n: int) -> list[tuple[str, str]] | None:
 
 def _layout(count: int, region: str) -> list[tuple[float, float]]:
     """`count` (x, y) spots on a grid inside `region`, row by row."""
+    if region == "shared":
+        return [_beside_top(i) for i in range(count)]
     x0, x1 = EXTENT[region]
-    y0, y1 = SHARED_Y_RANGE if region == "shared" else Y_RANGE
+    y0, y1 = Y_RANGE
     cols = max(1, min(count, int((x1 - x0) / MIN_PITCH)))
     rows = math.ceil(count / cols)
     spots = []
@@ -132,6 +138,12 @@ def _layout(count: int, region: str) -> list[tuple[float, float]]:
         y = y0 + (row + 0.5) * (y1 - y0) / rows
         spots.append((x, y))
     return spots
+
+
+def _beside_top(i: int) -> tuple[float, float]:
+    side = 1.0 if i % 2 == 0 else -1.0
+    row, col = divmod(i // 2, len(SHARED_X))
+    return (SHARED_X[col], side * (SHARED_Y0 + row * SHARED_PITCH))
 
 
 def _num(v: float) -> str:
@@ -177,11 +189,8 @@ def scenario_toml(family: str, n: int) -> str:
         'manipulators = ["left", "right"]',
         "",
         "[feasibility]",
-        'source = "declared"',
-        "",
-        "[feasibility.reachable]",
-        'left = ["robotOnly", "shared"]',
-        'right = ["robotOnly", "shared"]',
+        # Which arm reaches which part is decided by the motion planner.
+        'source = "geometry"',
     ]
     connections = ", ".join(f'"c{i}"' for i in range(1, len(legs) + 1))
     out += ["", "[[parts]]", 'id = "top"', 'kind = "top"', 'region = "shared"']

@@ -83,9 +83,18 @@ class Human(_Strict):
 
 
 class Feasibility(_Strict):
-    source: Literal["declared", "geometry"] = "declared"
+    source: Literal["declared", "geometry"] = "geometry"
     reachable: dict[str, list[str]] = {}
     unreachable_parts: dict[str, list[str]] = {}
+
+    @model_validator(mode="before")
+    @classmethod
+    def _declared_when_tabled(cls, data: object) -> object:
+        # Geometry is the default; a file that writes a table means that table.
+        if isinstance(data, dict) and "source" not in data:
+            tabled = "reachable" in data or "unreachable_parts" in data
+            return {**data, "source": "declared" if tabled else "geometry"}
+        return data
 
 
 class Part(_Strict):

@@ -8,7 +8,7 @@ from planner.encoding import FeasibilityContext
 from planner.scenario import Scenario, parse_scenario
 from planner.solver import BranchSolver, Step
 
-DEFAULT = Path(__file__).resolve().parents[1] / "static" / "scenarios" / "default.toml"
+DEFAULT = Path(__file__).resolve().parents[1] / "static" / "scenarios" / "declared.toml"
 
 
 def scenario(*edits: tuple[str, str]) -> Scenario:

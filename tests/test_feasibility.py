@@ -83,7 +83,7 @@ def test_paths_are_collision_free_at_fine_resolution(
         checked += 1
         # The last configuration really puts the gripper over the part, pointing down.
         world.robot.set_arm(arm, path[-1])
-        pos, orn = world.grasp_poses(world.scene.parts[part])[0]
+        pos, orn = world.grasp_poses(world.scene.parts[part], arm)[0]
         assert world._pose_error(arm, pos, orn)[0] < 0.01
         world.robot.go_home()
     assert checked >= 2
@@ -186,13 +186,12 @@ def test_cli_prints_every_pair(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_planning_takes_feasibility_from_geometry_when_asked() -> None:
     from planner.planning import feasible_pairs
-    from planner.scenario import parse_scenario
 
-    text = DEFAULT.read_text()
-    geometric = parse_scenario(text.replace('source = "declared"', 'source = "geometry"'), "g.toml")
-    pairs, seconds = feasible_pairs(geometric)
+    pairs, seconds = feasible_pairs(load_scenario(DEFAULT))
     assert {("left", "leg1"), ("right", "leg1")} <= pairs
     assert not {("left", "leg2"), ("right", "leg2")} & pairs
+    # Each arm reaches the top at the connection point on its side.
+    assert {("left", "top"), ("right", "top")} <= pairs
     assert seconds > 0
-    declared, zero = feasible_pairs(parse_scenario(text, "d.toml"))
-    assert ("left", "top") in declared and zero == 0.0
+    declared, zero = feasible_pairs(load_scenario(DEFAULT.with_name("declared.toml")))
+    assert ("left", "foot2") in declared and zero == 0.0

@@ -13,7 +13,7 @@ import pytest
 from planner.scenario import ScenarioError, load_scenario, parse_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
-DEFAULT = ROOT / "static" / "scenarios" / "default.toml"
+DEFAULT = ROOT / "static" / "scenarios" / "declared.toml"
 
 # A small valid scenario; each malformed case edits one spot of it.
 BASE = """\

@@ -127,11 +127,15 @@ class World:
 
     # -- inverse kinematics --------------------------------------------------
 
-    def grasp_poses(self, box: PartBox) -> list[tuple[list[float], list[float]]]:
-        """Top-down grasps over the part's centre, fingers closing across its short side
-        (they close along the gripper's y axis); the two yaws are the symmetric grasps."""
+    def grasp_poses(
+        self, box: PartBox, arm: str = "left"
+    ) -> list[tuple[list[float], list[float]]]:
+        """Top-down grasps over the part's work point (its centre, or the top's connection
+        point nearest `arm`), fingers closing across its short side (they close along
+        the gripper's y axis); the two yaws are the symmetric grasps."""
         yaw = box.yaw + (0.0 if box.size[0] >= box.size[1] else math.pi / 2)
-        pos = [box.x, box.y, box.top_z + GRASP_CLEARANCE]
+        x, y = box.work_point(self._shoulder(arm)[:2])
+        pos = [x, y, box.top_z + GRASP_CLEARANCE]
         return [
             (pos, list(pb.getQuaternionFromEuler([math.pi, 0.0, yaw + k * math.pi])))
             for k in (0, 1)
@@ -145,7 +149,7 @@ class World:
         goals: list[list[float]] = []
         found = False
         shoulder = self._shoulder(arm)
-        poses = self.grasp_poses(box)
+        poses = self.grasp_poses(box, arm)
         if min(math.dist(shoulder, p) for p, _ in poses) > self._reach_radius[arm]:
             return goals, found  # farther than the arm stretched straight: skip IK
         lo, hi = np.array(self.robot.lower[arm]), np.array(self.robot.upper[arm])

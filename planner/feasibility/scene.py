@@ -40,10 +40,44 @@ class PartBox:
     yaw: float
     size: tuple[float, float, float]
     region: str
+    movable: bool = True
+    connections: tuple[str, ...] = ()
 
     @property
     def top_z(self) -> float:
         return BENCH_TOP_Z + self.size[2]
+
+    def sites(self) -> dict[str, tuple[float, float]]:
+        """Where each connection point lies on the bench (x, y).
+
+        Points sit at the centres of a grid over the footprint, columns along the
+        part's longer side: two points on a long top are its two ends.
+        """
+        n = len(self.connections)
+        if n == 0:
+            return {}
+        long_x = self.size[0] >= self.size[1]
+        cols = math.ceil(math.sqrt(n))
+        rows = math.ceil(n / cols)
+        along, across = (self.size[0], self.size[1]) if long_x else (self.size[1], self.size[0])
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        out: dict[str, tuple[float, float]] = {}
+        for i, name in enumerate(self.connections):
+            row, col = divmod(i, cols)
+            u = along * ((col + 0.5) / cols - 0.5)
+            v = across * ((row + 0.5) / rows - 0.5)
+            lx, ly = (u, v) if long_x else (v, u)
+            out[name] = (self.x + c * lx - s * ly, self.y + s * lx + c * ly)
+        return out
+
+    def work_point(self, near: tuple[float, float]) -> tuple[float, float]:
+        """Where an arm works on this part: a movable part is grasped at its centre;
+        on a fixed one (the top) the arm attaches at the connection point nearest to
+        it, since the points are interchangeable (docs/domain.md)."""
+        sites = self.sites()
+        if self.movable or not sites:
+            return (self.x, self.y)
+        return min(sites.values(), key=lambda xy: math.dist(xy, near))
 
 
 @dataclass
@@ -77,13 +111,19 @@ def part_boxes(scenario: Scenario) -> dict[str, PartBox]:
     for p in scenario.parts:
         size = _size(p)
         if p.pose is not None:
-            boxes[p.id] = PartBox(p.id, p.pose[0], p.pose[1], p.pose[2], size, p.region)
+            boxes[p.id] = PartBox(
+                p.id, p.pose[0], p.pose[1], p.pose[2], size, p.region, *_joints(p)
+            )
         else:
             unplaced.setdefault(p.region, []).append(p)
     for region, parts in unplaced.items():
         lo, hi = extents[region]
         boxes.update(_grid(parts, lo, hi))
     return boxes
+
+
+def _joints(p: Part) -> tuple[bool, tuple[str, ...]]:
+    return p.movable, tuple(p.connection_points)
 
 
 def _size(p: Part) -> tuple[float, float, float]:
@@ -104,7 +144,7 @@ def _grid(parts: list[Part], lo: float, hi: float) -> dict[str, PartBox]:
         row, col = divmod(i, cols)
         x = lo + (hi - lo) * (row + 0.5) / rows
         y = (col - (cols - 1) / 2) * cell_y
-        out[p.id] = PartBox(p.id, x, y, 0.0, _size(p), p.region)
+        out[p.id] = PartBox(p.id, x, y, 0.0, _size(p), p.region, *_joints(p))
     return out
 
 
