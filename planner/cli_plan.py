@@ -23,6 +23,13 @@ def register_plan(parser: argparse.ArgumentParser) -> None:
         "--first-branch", action="store_true", help="print the branch the robot expects"
     )
     parser.add_argument("--quiet", action="store_true", help="no progress line")
+    parser.add_argument(
+        "--cache-dir",
+        help="where geometric checks are cached (default: $TANDEM_CACHE_DIR or ~/.cache/tandem)",
+    )
+    parser.add_argument(
+        "--no-cache", action="store_true", help="check geometry afresh and store nothing"
+    )
     parser.set_defaults(run=run_plan)
 
 
@@ -48,7 +55,10 @@ def run_plan(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     progress = None if args.quiet or not sys.stderr.isatty() else _progress_line
     try:
-        result = plan_scenario(scenario, workers=args.workers, progress=progress)
+        cache_dir = ":memory:" if args.no_cache else args.cache_dir
+        result = plan_scenario(
+            scenario, workers=args.workers, progress=progress, cache_dir=cache_dir
+        )
     except DeadEnd as err:
         print(f"{args.scenario}: no plan: {err}", file=sys.stderr)
         return 1
@@ -84,4 +94,3 @@ def run_check(args: argparse.Namespace) -> int:
     violations = audit(doc)
     print(f"{args.plan}: {format_report(violations)}")
     return 1 if violations else 0
-

@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from planner.hcp import ConditionalPlanner, DagNode, Problem, Progress
 from planner.plan import Plan, build_plan
 from planner.scenario import Scenario
 from planner.solver import State
+
+if TYPE_CHECKING:
+    from planner.feasibility.checks import BenchChecks
 
 # Steps per milestone solve; a milestone that needs more is retried with 2x, 4x, 8x.
 # Short horizons keep solves at a few milliseconds (paper-05: 1.7 s at 4, 5.0 s at 8).
@@ -36,20 +42,40 @@ def initial_state(scenario: Scenario) -> State:
     return frozenset() if can_pick else frozenset({"humanFree"})
 
 
-def feasible_pairs(scenario: Scenario) -> tuple[frozenset[tuple[str, str]], float]:
-    """(arm, part) pairs the robot can reach, and the seconds spent checking them.
+@contextmanager
+def bench_checks(scenario: Scenario, cache_dir: Path | str | None) -> Iterator[BenchChecks | None]:
+    """The geometric checks of a scenario whose feasibility source is geometry, else None.
 
-    Declared scenarios answer from their table; geometric ones ask the motion
-    planner once per pair, in the parent process, so workers share the answers.
+    `cache_dir`: where the check cache lives (None: the default, ":memory:": none).
     """
     if scenario.feasibility.source != "geometry":
-        return frozenset(scenario.reachable_pairs()), 0.0
+        yield None
+        return
     # Imported here: pybullet and OMPL load only when geometry is asked for.
-    from planner.feasibility import reachability_table, reachable_pairs
+    from planner.feasibility.cache import CheckCache
+    from planner.feasibility.checks import BenchChecks
 
+    with CheckCache(cache_dir) as cache, BenchChecks(scenario, cache=cache) as checks:
+        yield checks
+
+
+def feasible_pairs(
+    scenario: Scenario, checks: BenchChecks | None = None
+) -> tuple[frozenset[tuple[str, str]], float]:
+    """(arm, part) pairs the robot can reach, and the seconds spent checking them.
+
+    Declared scenarios answer from their table; geometric ones ask `checks` once per
+    pair, in the parent process, so workers share the answers.
+    """
+    if checks is None:
+        if scenario.feasibility.source == "geometry":
+            with bench_checks(scenario, ":memory:") as own:
+                return feasible_pairs(scenario, own)
+        return frozenset(scenario.reachable_pairs()), 0.0
     t0 = time.perf_counter()
-    table = reachability_table(scenario)
-    return frozenset(reachable_pairs(table)), time.perf_counter() - t0
+    table = checks.table()
+    pairs = frozenset(pair for pair, result in table.items() if result.reachable)
+    return pairs, time.perf_counter() - t0
 
 
 def plan_scenario(
@@ -59,14 +85,28 @@ def plan_scenario(
     progress: Callable[[Progress], None] | None = None,
     planner_hook: Callable[[ConditionalPlanner], None] | None = None,
     skip: tuple[str, ...] = (),
+    cache_dir: Path | str | None = None,
 ) -> PlanResult:
     """Plans every contingency of `scenario`; raises `hcp.DeadEnd` if no plan exists.
 
     `planner_hook` receives the planner before it starts (to cancel it from
-    another thread); `skip` leaves encoding concerns out (for ablation tests).
+    another thread); `skip` leaves encoding concerns out (for ablation tests);
+    `cache_dir` is where geometric checks are cached (see `bench_checks`).
     """
+    with bench_checks(scenario, cache_dir) as checks:
+        return _plan(scenario, checks, workers, progress, planner_hook, skip)
+
+
+def _plan(
+    scenario: Scenario,
+    checks: BenchChecks | None,
+    workers: int,
+    progress: Callable[[Progress], None] | None,
+    planner_hook: Callable[[ConditionalPlanner], None] | None,
+    skip: tuple[str, ...],
+) -> PlanResult:
     t0 = time.perf_counter()
-    reachable, checks_s = feasible_pairs(scenario)
+    reachable, checks_s = feasible_pairs(scenario, checks)
     facts = scenario.facts(reachable)
     problem = Problem(
         facts=tuple(f for f in facts if not f.startswith("reachable(")),
@@ -87,14 +127,23 @@ def plan_scenario(
     root = planner.build(initial_state(scenario))
     if planner.cancelled:
         raise PlanningCancelled(f"cancelled after {planner.solves} solves")
-    plan_s = time.perf_counter() - t0
     plan = build_plan(
         planner.nodes,
         root,
         scenario_name=scenario.name,
         scenario_sha256=scenario.sha256,
         facts=facts,
-        plan_s=plan_s,
+        plan_s=time.perf_counter() - t0,
         checks_s=checks_s,
     )
-    return PlanResult(plan, first[0] if first else plan_s, planner.solves)
+    if checks is not None:
+        # Paths only for the actions the plan uses, once it is built: the solver
+        # needs reachability alone.
+        from planner.feasibility.motions import add_motions
+
+        t_motion = time.perf_counter()
+        add_motions(plan.doc, checks)
+        checks_s += time.perf_counter() - t_motion
+        plan.stats["plan_s"] = round(time.perf_counter() - t0, 3)
+        plan.stats["checks_s"] = round(checks_s, 3)
+    return PlanResult(plan, first[0] if first else plan.stats["plan_s"], planner.solves)

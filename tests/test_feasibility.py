@@ -195,3 +195,38 @@ def test_planning_takes_feasibility_from_geometry_when_asked() -> None:
     assert seconds > 0
     declared, zero = feasible_pairs(load_scenario(DEFAULT.with_name("declared.toml")))
     assert ("left", "foot2") in declared and zero == 0.0
+
+
+def test_plan_motions_are_collision_free_within_limits_and_continuous(tmp_path: Path) -> None:
+    from planner.feasibility.motions import joint_names
+    from planner.planning import plan_scenario
+    from planner.terms import parse_term
+
+    plan = plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=tmp_path).plan
+    motions = {}
+    for node in plan.nodes.values():
+        if node["kind"] != "actuation":
+            continue
+        motion = node["motion"]
+        assert motion["joints"] == joint_names(motion["arm"])
+        action = parse_term(node["action"])
+        # A free arm waits at home: holds start there, releases end there.
+        if action.name == "hold":
+            assert motion["path"][0] == pytest.approx(HOME[motion["arm"]], abs=1e-3)
+        if action.name == "unhold":
+            assert motion["path"][-1] == pytest.approx(HOME[motion["arm"]], abs=1e-3)
+        motions[(motion["arm"], str(motion["path"]))] = motion
+    assert len(motions) >= 4
+    with World(load_scenario(DEFAULT)) as world:
+        parts = frozenset(world.scene.parts)
+        for arm, _ in motions:
+            path = motions[(arm, _)]["path"]
+            for q in path:
+                assert world.robot.within_limits(arm, q, tol=1e-3)
+            for a, b in zip(path, path[1:], strict=False):
+                jump = max(abs(x - y) for x, y in zip(a, b, strict=True))
+                steps = max(1, math.ceil(jump / FINE_STEP))
+                for k in range(steps + 1):
+                    q = [x + (y - x) * k / steps for x, y in zip(a, b, strict=True)]
+                    # The gripper may touch what it holds or works on; nothing else.
+                    assert world.is_valid(arm, q, parts), (arm, q)

@@ -7,6 +7,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -97,8 +98,8 @@ def test_bench_json_smoke() -> None:
     row = rows[0]
     assert set(row) == {
         "instance", "family", "n", "paper_instance", *benchmark.STAT_KEYS,
-        "first_branch_s", "plan_s", "runs_s", "solves", "check", "violations", "audit_s",
-        "error", "paper", "ratio",
+        "first_branch_s", "plan_s", "runs_s", "checks_cold_s", "checks_cached_s", "solves",
+        "check", "violations", "audit_s", "error", "paper", "ratio",
     }  # fmt: skip
     assert (row["instance"], row["family"], row["n"], row["paper_instance"]) == (
         "paper-01", "U", 2, 1
@@ -118,11 +119,33 @@ def test_bench_rejects_unknown_instance() -> None:
 
 
 @pytest.mark.parametrize("name", PAPER_NAMES)
-def test_every_paper_instance_plans_and_passes_the_audit(name: str) -> None:
+def test_every_paper_instance_plans_with_geometry_and_passes_the_audit(
+    name: str, tmp_path: Path
+) -> None:
     from planner.audit import audit
+    from planner.feasibility import BenchChecks, CheckCache
     from planner.planning import plan_scenario
 
     scenario = load_scenario(PAPER_DIR / f"{name}.toml")
-    plan = plan_scenario(scenario, workers=1).plan
-    assert audit(plan.doc) == []
-    assert plan.stats["L"] >= 2 and plan.stats["K"] >= 1  # contingencies, and help asked
+    assert scenario.feasibility.source == "geometry"
+    cold = plan_scenario(scenario, workers=1, cache_dir=tmp_path).plan
+    assert audit(cold.doc) == []
+    assert cold.stats["L"] >= 2 and cold.stats["K"] >= 1  # contingencies, and help asked
+    actuation = [n for n in cold.nodes.values() if n["kind"] == "actuation"]
+    assert actuation and all(len(n["motion"]["path"][0]) == 7 for n in actuation)
+    # The motion planner, not a table, makes the paper's regions what they are:
+    # some arm reaches every robot-only and shared part, none a human-only one.
+    with CheckCache(tmp_path) as cache, BenchChecks(scenario, cache=cache) as checks:
+        table = checks.table()
+        assert cache.misses == 0  # all answered by the cache the plan filled
+    for part in scenario.parts:
+        reached = any(table[(arm, part.id)].reachable for arm in ("left", "right"))
+        assert reached == (part.region != "humanOnly"), part.id
+    # Planning again from the filled cache gives the same plan.
+    warm = plan_scenario(scenario, workers=1, cache_dir=tmp_path).plan
+    assert _without_timings(warm.doc) == _without_timings(cold.doc)
+
+
+def _without_timings(doc: dict[str, Any]) -> dict[str, Any]:
+    stats = {k: v for k, v in doc["stats"].items() if not k.endswith("_s")}
+    return {**doc, "stats": stats}

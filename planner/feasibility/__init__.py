@@ -7,11 +7,20 @@
 
 from __future__ import annotations
 
+from planner.feasibility.cache import CheckCache
+from planner.feasibility.checks import BenchChecks
 from planner.feasibility.reach import PlannerName, ReachResult, Reason, World
-from planner.feasibility.robot import ARMS
 from planner.scenario_model import Scenario
 
-__all__ = ["ReachResult", "Reason", "World", "reachability_table", "reachable_pairs"]
+__all__ = [
+    "BenchChecks",
+    "CheckCache",
+    "ReachResult",
+    "Reason",
+    "World",
+    "reachability_table",
+    "reachable_pairs",
+]
 
 
 def reachability_table(
@@ -20,21 +29,13 @@ def reachability_table(
     planner: PlannerName = "RRTConnect",
     time_limit: float = 1.0,
     seed: int = 0,
+    cache: CheckCache | None = None,
 ) -> dict[tuple[str, str], ReachResult]:
-    """Every (arm, part) pair, in file order: movable parts and the top alike.
-
-    Only manipulators named like Baxter's arms ("left", "right") have a geometric
-    model; any other name is a scenario this module cannot answer for.
-    """
-    unknown = [m for m in scenario.robot.manipulators if m not in ARMS]
-    if unknown:
-        raise ValueError(f"no geometric model for manipulators {unknown}: expected {ARMS}")
-    table: dict[tuple[str, str], ReachResult] = {}
-    with World(scenario, planner=planner, time_limit=time_limit, seed=seed) as world:
-        for arm in scenario.robot.manipulators:
-            for part in scenario.parts:
-                table[(arm, part.id)] = world.check_reach(arm, part.id)
-    return table
+    """Every (arm, part) pair, in file order, from `cache` where it has them."""
+    with BenchChecks(
+        scenario, planner=planner, time_limit=time_limit, seed=seed, cache=cache
+    ) as checks:
+        return checks.table()
 
 
 def reachable_pairs(table: dict[tuple[str, str], ReachResult]) -> set[tuple[str, str]]:

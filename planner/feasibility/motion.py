@@ -18,20 +18,18 @@ Config = list[float]
 RESOLUTION = 0.002  # fraction of the space's extent between checked states (~0.025 rad)
 PATH_STEP = 0.05  # radians, largest joint change between consecutive returned states
 
-_seeded = False
-
 
 def seed_ompl(seed: int) -> None:
-    """Fix OMPL's global seed once per process, before any of its RNGs exist.
+    """Restart OMPL's global seed sequence, before each query.
 
-    OMPL seeds each planner's RNG from one global sequence, so with the seed fixed the
-    answers depend only on the order of queries, which `reachability_table` fixes.
+    OMPL seeds every new planner's RNG from one global sequence; restarting it per
+    query makes each answer depend on that query alone, not on which other checks
+    came from the cache, so cold and warm caches give the same paths.
     """
-    global _seeded
-    if not _seeded:
-        ou.RNG.setSeed(seed + 1)  # OMPL replaces 0 by 1 with a warning
-        ou.setLogLevel(ou.LogLevel.LOG_ERROR)  # "approximate solution" chatter otherwise
-        _seeded = True
+    # OMPL complains (harmlessly) when the sequence has started already.
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    ou.RNG.setSeed(seed % (2**31 - 1) + 1)  # OMPL replaces 0 by 1 with a warning
+    ou.setLogLevel(ou.LogLevel.LOG_ERROR)  # "approximate solution" chatter otherwise
 
 
 def plan_path(

@@ -76,9 +76,13 @@ class World:
 
     # -- collision checking -------------------------------------------------
 
-    def is_valid(self, arm: str, q: list[float], target: str | None = None) -> bool:
+    def is_valid(
+        self, arm: str, q: list[float], target: str | frozenset[str] | None = None
+    ) -> bool:
         """`arm` at `q`, the other arm at home: no self-contact, no contact with the
-        bench or a part, except the gripper touching `target` (the part it grasps)."""
+        bench or a part, except the gripper touching `target` (the part or parts it
+        grasps or works on)."""
+        targets = frozenset([target]) if isinstance(target, str) else target or frozenset()
         self.robot.set_arm(arm, q)
         pb.performCollisionDetection(physicsClientId=self.client)
         body = self.robot.body
@@ -88,11 +92,7 @@ class World:
             link, other = (c[3], c[2]) if c[1] == body else (c[4], c[1])
             if link not in self._moving:
                 continue  # pedestal or torso resting near the bench: not a motion problem
-            if (
-                target is not None
-                and self._body_part.get(other) == target
-                and link in self.robot.gripper_links[arm]
-            ):
+            if self._body_part.get(other) in targets and link in self.robot.gripper_links[arm]:
                 continue
             return False
         return True
@@ -109,6 +109,7 @@ class World:
         if not goals:
             reason: Reason = "IK in collision" if found_ik else "no IK"
             return ReachResult(False, reason, time.perf_counter() - start, None)
+        seed_ompl(zlib.crc32(f"{self.seed}/{arm}/{part}".encode()))
         for goal in goals:
             path = plan_path(
                 lambda q: self.is_valid(arm, q, part),
@@ -125,11 +126,27 @@ class World:
         self.robot.go_home()
         return ReachResult(False, "no path", time.perf_counter() - start, None)
 
+    def move(
+        self, arm: str, start: list[float], goal: list[float], parts: frozenset[str]
+    ) -> list[list[float]] | None:
+        """A collision-free path between two configurations of `arm` whose gripper may
+        touch `parts` (the one it holds, the one it works on), or None."""
+        seed_ompl(zlib.crc32(f"{self.seed}/{arm}/{sorted(parts)}".encode()))
+        path = plan_path(
+            lambda q: self.is_valid(arm, q, parts),
+            start,
+            goal,
+            self.robot.lower[arm],
+            self.robot.upper[arm],
+            planner=self.planner,
+            time_limit=self.time_limit,
+        )
+        self.robot.go_home()
+        return path
+
     # -- inverse kinematics --------------------------------------------------
 
-    def grasp_poses(
-        self, box: PartBox, arm: str = "left"
-    ) -> list[tuple[list[float], list[float]]]:
+    def grasp_poses(self, box: PartBox, arm: str = "left") -> list[tuple[list[float], list[float]]]:
         """Top-down grasps over the part's work point (its centre, or the top's connection
         point nearest `arm`), fingers closing across its short side (they close along
         the gripper's y axis); the two yaws are the symmetric grasps."""

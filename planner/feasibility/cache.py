@@ -1,0 +1,86 @@
+"""Check results on disk (SQLite), so re-planning the same bench costs nothing.
+
+A result is stored under the hash of everything that could change it: the bench
+geometry (regions, part boxes, robot base), the motion planner's parameters and
+`MODEL_VERSION`, bumped whenever the checking code changes its answers. The file
+lives in `TANDEM_CACHE_DIR`, else `$XDG_CACHE_HOME/tandem`, else `~/.cache/tandem`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sqlite3
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from planner.feasibility.scene import part_boxes, region_extents
+from planner.scenario_model import Scenario
+
+# Bump when reach.py, motion.py, robot.py or scene.py change what a check returns.
+MODEL_VERSION = 2
+FILE_NAME = "feasibility.sqlite"
+
+
+def default_dir() -> Path:
+    explicit = os.environ.get("TANDEM_CACHE_DIR")
+    if explicit:
+        return Path(explicit)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "tandem"
+
+
+def geometry_key(scenario: Scenario, **parameters: Any) -> str:
+    """The hash of the scenario's geometry and the check parameters."""
+    doc = {
+        "version": MODEL_VERSION,
+        "regions": region_extents(scenario),
+        "parts": {pid: asdict(box) for pid, box in sorted(part_boxes(scenario).items())},
+        "base": scenario.robot.base_pose,
+        "parameters": parameters,
+    }
+    text = json.dumps(doc, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+class CheckCache:
+    """Key -> JSON value; `directory=None` uses `default_dir()`, ":memory:" keeps nothing."""
+
+    def __init__(self, directory: Path | str | None = None) -> None:
+        if directory == ":memory:":
+            self._db = sqlite3.connect(":memory:")
+        else:
+            folder = Path(directory) if directory is not None else default_dir()
+            folder.mkdir(parents=True, exist_ok=True)
+            # Several planners may share the file: WAL lets readers run beside a writer.
+            self._db = sqlite3.connect(folder / FILE_NAME, timeout=30.0)
+            self._db.execute("PRAGMA journal_mode=WAL")
+        self._db.execute("CREATE TABLE IF NOT EXISTS checks (key TEXT PRIMARY KEY, value TEXT)")
+        self.hits = 0
+        self.misses = 0
+
+    def get(self, key: str) -> Any:
+        row = self._db.execute("SELECT value FROM checks WHERE key = ?", (key,)).fetchone()
+        if row is None:
+            self.misses += 1
+            return None
+        self.hits += 1
+        return json.loads(row[0])
+
+    def put(self, key: str, value: Any) -> None:
+        with self._db:
+            self._db.execute(
+                "INSERT OR REPLACE INTO checks (key, value) VALUES (?, ?)",
+                (key, json.dumps(value, separators=(",", ":"))),
+            )
+
+    def close(self) -> None:
+        self._db.close()
+
+    def __enter__(self) -> CheckCache:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
