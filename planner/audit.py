@@ -11,6 +11,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from planner.audit_motion import motion_problems
 from planner.domain_sim import (
     COMMUNICATION,
     GOAL,
@@ -75,8 +76,10 @@ def audit(plan: dict[str, Any]) -> list[Violation]:
         if node_id not in walker.paths:
             out.append(Violation(node_id, "", "node is not reachable from the root"))
     if walker.sound:
-        # Statistics only mean something on a well-formed DAG.
+        # Statistics and motions only mean something on a well-formed DAG.
         _compare_stats(plan.get("stats"), tree_stats(plan), plan_level)
+        for node_id, message in motion_problems(nodes, root):
+            out.append(Violation(node_id, walker.paths.get(node_id, ""), message))
     return out
 
 

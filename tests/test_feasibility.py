@@ -230,3 +230,23 @@ def test_plan_motions_are_collision_free_within_limits_and_continuous(tmp_path: 
                     q = [x + (y - x) * k / steps for x, y in zip(a, b, strict=True)]
                     # The gripper may touch what it holds or works on; nothing else.
                     assert world.is_valid(arm, q, parts), (arm, q)
+
+
+def test_audit_checks_that_motions_are_continuous(tmp_path: Path) -> None:
+    import copy
+
+    from planner.audit import audit
+    from planner.planning import plan_scenario
+
+    doc = plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=tmp_path).plan.doc
+    assert audit(doc) == []
+    broken = copy.deepcopy(doc)
+    node_id, node = next(
+        (i, n) for i, n in broken["nodes"].items() if str(n["action"]).startswith("unhold")
+    )
+    node["motion"]["path"] = [[q + 0.2 for q in node["motion"]["path"][0]]]
+    messages = {(v.node, v.message) for v in audit(broken)}
+    arm = node["motion"]["arm"]
+    assert (node_id, f"{arm} motion starts away from where the arm is") in messages
+    del broken["nodes"][node_id]["motion"]
+    assert any("actuation without a motion" in v.message for v in audit(broken))
