@@ -20,7 +20,7 @@ from planner.feasibility.scene import part_boxes, region_extents
 from planner.scenario_model import Scenario
 
 # Bump when reach.py, motion.py, robot.py or scene.py change what a check returns.
-MODEL_VERSION = 2
+MODEL_VERSION = 3
 FILE_NAME = "feasibility.sqlite"
 
 

@@ -87,7 +87,7 @@ def plan_path(
     ss.solve(time_limit)
     if not ss.haveExactSolutionPath():
         return None
-    ss.simplifySolution(min(0.2, time_limit))
+    ss.simplifySolution(min(0.05, time_limit))
     path = ss.getSolutionPath()
     states = [[float(path.getState(k)[i]) for i in range(n)] for k in range(path.getStateCount())]
     return _densify(states)

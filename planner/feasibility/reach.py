@@ -11,7 +11,8 @@ from __future__ import annotations
 import math
 import time
 import zlib
-from dataclasses import dataclass
+from collections.abc import Iterator
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -32,6 +33,12 @@ IK_ATTEMPTS = 12
 IK_GIVE_UP_AFTER = 4  # attempts; if none came within IK_HOPELESS the target is out of reach
 IK_HOPELESS = 0.05  # metres
 GOALS_WANTED = 3  # collision-free IK goals to try paths to
+
+
+@dataclass
+class _IkSearch:
+    accurate: bool = False  # some IK solution met the pose, colliding or not
+    goals: list[list[float]] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -104,13 +111,11 @@ class World:
         self.robot.go_home()
         box = self.scene.parts[part]
         rng = np.random.default_rng([self.seed, zlib.crc32(f"{arm}/{part}".encode())])
-        goals, found_ik = self._ik_goals(arm, box, rng)
-        self.robot.go_home()
-        if not goals:
-            reason: Reason = "IK in collision" if found_ik else "no IK"
-            return ReachResult(False, reason, time.perf_counter() - start, None)
+        search = _IkSearch()
         seed_ompl(zlib.crc32(f"{self.seed}/{arm}/{part}".encode()))
-        for goal in goals:
+        # Goals come one at a time: the first one usually has a path, and IK restarts
+        # cost more than a path query.
+        for goal in self._ik_goals(arm, box, rng, search):
             path = plan_path(
                 lambda q: self.is_valid(arm, q, part),
                 HOME[arm],
@@ -124,7 +129,10 @@ class World:
                 self.robot.go_home()
                 return ReachResult(True, "ok", time.perf_counter() - start, path)
         self.robot.go_home()
-        return ReachResult(False, "no path", time.perf_counter() - start, None)
+        reason: Reason = (
+            "no path" if search.goals else "IK in collision" if search.accurate else "no IK"
+        )
+        return ReachResult(False, reason, time.perf_counter() - start, None)
 
     def move(
         self, arm: str, start: list[float], goal: list[float], parts: frozenset[str]
@@ -159,16 +167,14 @@ class World:
         ]
 
     def _ik_goals(
-        self, arm: str, box: PartBox, rng: np.random.Generator
-    ) -> tuple[list[list[float]], bool]:
-        """Collision-free IK solutions (up to GOALS_WANTED) and whether any accurate
-        solution existed at all (to tell "no IK" from "IK in collision")."""
-        goals: list[list[float]] = []
-        found = False
+        self, arm: str, box: PartBox, rng: np.random.Generator, search: _IkSearch
+    ) -> Iterator[list[float]]:
+        """Distinct collision-free IK solutions, up to GOALS_WANTED; `search` records
+        whether any accurate solution existed (to tell "no IK" from "IK in collision")."""
         shoulder = self._shoulder(arm)
         poses = self.grasp_poses(box, arm)
         if min(math.dist(shoulder, p) for p, _ in poses) > self._reach_radius[arm]:
-            return goals, found  # farther than the arm stretched straight: skip IK
+            return  # farther than the arm stretched straight: skip IK
         lo, hi = np.array(self.robot.lower[arm]), np.array(self.robot.upper[arm])
         best = math.inf
         for attempt in range(IK_ATTEMPTS):
@@ -178,16 +184,16 @@ class World:
                 best = min(best, pos_err)
                 if not ok:
                     continue
-                found = True
+                search.accurate = True
                 if self.is_valid(arm, q, box.id) and not any(
-                    max(abs(a - b) for a, b in zip(q, g, strict=True)) < 1e-3 for g in goals
+                    max(abs(a - b) for a, b in zip(q, g, strict=True)) < 1e-3 for g in search.goals
                 ):
-                    goals.append(q)
-            if len(goals) >= GOALS_WANTED:
-                break
-            if attempt + 1 >= IK_GIVE_UP_AFTER and not found and best > IK_HOPELESS:
-                break  # every seed ends far from the target: it is out of reach
-        return goals, found
+                    search.goals.append(q)
+                    yield q
+                    if len(search.goals) >= GOALS_WANTED:
+                        return
+            if attempt + 1 >= IK_GIVE_UP_AFTER and not search.accurate and best > IK_HOPELESS:
+                return  # every seed ends far from the target: it is out of reach
 
     def _solve_ik(
         self, arm: str, pos: list[float], orn: list[float], seed_q: list[float]
