@@ -3,7 +3,13 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test bench lint
+.PHONY: run test bench lint browser
+
+# The browser tests drive Debian's chromium; install it once if it is missing.
+browser:
+	test -x /usr/bin/chromium || { \
+		SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+		$$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq chromium; }
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || python3 -m venv $(VENV)
@@ -11,14 +17,14 @@ $(STAMP): pyproject.toml
 	touch $@
 
 run: $(STAMP)
-	$(BIN)/tandem plan static/scenarios/default.toml --first-branch
+	$(BIN)/tandem dashboard --scenario static/scenarios/default.toml
 
-test: $(STAMP)
+test: $(STAMP) browser
 	$(BIN)/pytest -q
 
 bench: $(STAMP)
 	$(BIN)/tandem bench
 
 lint: $(STAMP)
-	$(BIN)/ruff check planner tests
-	$(BIN)/mypy planner
+	$(BIN)/ruff check planner app tests
+	$(BIN)/mypy planner app

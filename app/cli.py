@@ -9,9 +9,12 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
+from app import cli_dashboard
 from planner import cli as planner_cli
 
-APP_SUBCOMMANDS: list[tuple[str, str, planner_cli.Register]] = []
+APP_SUBCOMMANDS: list[tuple[str, str, planner_cli.Register]] = [
+    ("dashboard", "the browser dashboard: bench, planning, plan tree", cli_dashboard.register),
+]
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -25,6 +25,7 @@ HOME = {
     "right": [0.0, -0.55, 0.0, 0.75, 0.0, 1.26, 0.0],
 }
 _URDF_IN_PREFIX = "example-robot-data/robots/baxter_description/urdf/baxter.urdf"
+HUMAN_URDF_IN_PREFIX = "example-robot-data/robots/human_description/robots/human.urdf"
 # Crude implicit cylinders overlap when the elbow bends (field notes): shoulder vs
 # upper elbow, upper elbow vs upper forearm (past e1 ~2.1 rad), plus their "_visual"
 # twins, which carry collision shapes too.
@@ -62,15 +63,25 @@ def share_dir() -> Path:
 
 
 def baxter_urdf() -> Path:
-    """A copy of baxter.urdf whose `package://` mesh names are absolute paths.
+    """A copy of baxter.urdf whose `package://` mesh names are absolute paths."""
+    return resolved_urdf(_URDF_IN_PREFIX, "baxter")
+
+
+def human_urdf() -> Path:
+    """The same for example-robot-data's human model (drawn by the dashboard)."""
+    return resolved_urdf(HUMAN_URDF_IN_PREFIX, "human")
+
+
+def resolved_urdf(in_prefix: str, name: str) -> Path:
+    """A copy of the URDF at `in_prefix` (under `share_dir()`) with absolute mesh paths.
 
     pybullet cannot resolve ROS package URLs; the copy lives in the temp dir, keyed by
     the source path and contents so a reinstall or another venv never reuses it.
     """
     share = share_dir()
-    text = (share / _URDF_IN_PREFIX).read_text()
+    text = (share / in_prefix).read_text()
     key = hashlib.sha256((str(share) + text).encode()).hexdigest()[:16]
-    out = Path(tempfile.gettempdir()) / f"tandem-baxter-{key}.urdf"
+    out = Path(tempfile.gettempdir()) / f"tandem-{name}-{key}.urdf"
     if not out.is_file():
         tmp = out.with_suffix(".tmp")
         tmp.write_text(text.replace("package://", f"{share}/"))

@@ -1,0 +1,34 @@
+"""`tandem dashboard`: the browser dashboard on a scenario."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+
+def register(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
+    parser.add_argument("--port", type=int, default=8080, help="port (default 8080)")
+    parser.add_argument(
+        "--scenario", default="default.toml", help="scenario file, or a name under static/scenarios"
+    )
+    parser.add_argument("--workers", type=int, default=0, help="planner processes (0: all cores)")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    # Imported here: viser and the robot meshes load only for this command.
+    from app.dashboard.server import Dashboard
+
+    try:
+        dashboard = Dashboard(args.host, args.port, args.scenario, workers=args.workers)
+    except OSError as err:
+        print(f"dashboard: cannot listen on {args.host}:{args.port}: {err.strerror or err}")
+        return 2
+    print(f"Tandem dashboard on http://{args.host}:{args.port}  (Ctrl-C to stop)", flush=True)
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        dashboard.close()
+    return 0

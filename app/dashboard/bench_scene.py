@@ -1,0 +1,161 @@
+"""The 3D bench: regions, parts, Baxter and the human, drawn with viser.
+
+Coordinates are the motion planner's (planner/feasibility/scene.py): x along the
+bench away from the robot, z up, 0 at Baxter's base frame (~0.93 m above the floor).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import viser
+import yourdfpy
+from viser.extras import ViserUrdf
+
+from app.dashboard.world import WorldView
+from planner.feasibility.robot import ARMS, HOME, baxter_urdf, human_urdf
+from planner.feasibility.scene import (
+    BENCH_HALF_WIDTH,
+    BENCH_THICKNESS,
+    BENCH_TOP_Z,
+    PartBox,
+    part_boxes,
+    region_extents,
+)
+from planner.scenario_model import Scenario
+
+FLOOR_Z = -0.93
+REGION_COLOURS = {
+    "robotOnly": (120, 160, 230),
+    "shared": (240, 200, 90),
+    "humanOnly": (140, 200, 140),
+}
+OTHER_REGION = (200, 200, 200)
+PART_COLOURS = {"top": (170, 120, 70), "leg": (200, 160, 110), "foot": (110, 110, 120)}
+DANGER = (220, 50, 50)
+HELD_TINT = (255, 140, 0)
+HUMAN_X = 1.85  # the human stands past the far end of the bench, facing the robot
+PREFIX = "/bench"
+
+
+def _yaw_quat(yaw: float) -> tuple[float, float, float, float]:
+    return (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+
+
+class BenchScene:
+    """Everything on and around the bench; `show(world)` moves parts and arms."""
+
+    def __init__(self, server: viser.ViserServer, *, load_models: bool = True) -> None:
+        self.server = server
+        self.boxes: dict[str, PartBox] = {}
+        self.scenario: Scenario | None = None
+        self._part_handles: dict[str, viser.BoxHandle] = {}
+        self._label_handles: dict[str, viser.LabelHandle] = {}
+        self._static: list[viser.SceneNodeHandle] = []
+        self.robot: ViserUrdf | None = None
+        if load_models:
+            self._load_models()
+
+    def _load_models(self) -> None:
+        scene = self.server.scene
+        scene.add_frame("/baxter", show_axes=False)
+        self.robot = ViserUrdf(
+            self.server, yourdfpy.URDF.load(str(baxter_urdf())), root_node_name="/baxter"
+        )
+        # The human model is y-up and faces +x: stand it up, facing the robot, feet
+        # on the floor (its feet are ~1.0 m below its pelvis).
+        upright = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+        scene.add_frame(
+            "/human",
+            show_axes=False,
+            position=(HUMAN_X, 0.0, FLOOR_Z + 1.0),
+            wxyz=tuple(viser.transforms.SO3.from_matrix(upright).wxyz),
+        )
+        ViserUrdf(self.server, yourdfpy.URDF.load(str(human_urdf())), root_node_name="/human")
+        scene.add_label("/human_name", "human", position=(HUMAN_X, 0.0, FLOOR_Z + 1.85))
+        self.show_arms({arm: list(q) for arm, q in HOME.items()})
+
+    def load(self, scenario: Scenario) -> None:
+        """Draw a scenario's bench and parts, replacing what was there."""
+        for handle in [*self._static, *self._part_handles.values(), *self._label_handles.values()]:
+            handle.remove()
+        self._static, self._part_handles, self._label_handles = [], {}, {}
+        self.scenario = scenario
+        self.boxes = part_boxes(scenario)
+        scene = self.server.scene
+        extents = region_extents(scenario)
+        x_lo = min(lo for lo, _ in extents.values())
+        x_hi = max(hi for _, hi in extents.values())
+        self._static.append(
+            scene.add_box(
+                f"{PREFIX}/table",
+                color=(150, 150, 150),
+                dimensions=(x_hi - x_lo, 2 * BENCH_HALF_WIDTH, BENCH_THICKNESS),
+                position=((x_lo + x_hi) / 2, 0.0, BENCH_TOP_Z - BENCH_THICKNESS / 2 - 0.002),
+            )
+        )
+        for region in scenario.regions:
+            lo, hi = extents[region.id]
+            colour = REGION_COLOURS.get(region.id, OTHER_REGION)
+            self._static.append(
+                scene.add_box(
+                    f"{PREFIX}/regions/{region.id}",
+                    color=colour,
+                    dimensions=(hi - lo - 0.01, 2 * BENCH_HALF_WIDTH - 0.02, 0.002),
+                    position=((lo + hi) / 2, 0.0, BENCH_TOP_Z),
+                )
+            )
+            reach = "human reaches" if region.human_reach else "robot only"
+            self._static.append(
+                scene.add_label(
+                    f"{PREFIX}/region_labels/{region.id}",
+                    f"{region.id} ({reach})",
+                    position=((lo + hi) / 2, -BENCH_HALF_WIDTH + 0.05, BENCH_TOP_Z + 0.01),
+                )
+            )
+        for pid, box in self.boxes.items():
+            part = scenario.part(pid)
+            colour = DANGER if part.dangerous else PART_COLOURS.get(part.kind, (150, 150, 200))
+            self._part_handles[pid] = scene.add_box(
+                f"{PREFIX}/parts/{pid}",
+                color=colour,
+                dimensions=box.size,
+                position=(box.x, box.y, BENCH_TOP_Z + box.size[2] / 2),
+                wxyz=_yaw_quat(box.yaw),
+            )
+            marker = f" #{part.marker}" if part.marker is not None else ""
+            danger = " (dangerous)" if part.dangerous else ""
+            self._label_handles[pid] = scene.add_label(
+                f"{PREFIX}/labels/{pid}",
+                f"{pid}{marker}{danger}",
+                position=(box.x, box.y, BENCH_TOP_Z + box.size[2] + 0.03),
+            )
+
+    def show(self, world: WorldView) -> None:
+        for pid, placement in world.parts.items():
+            handle = self._part_handles.get(pid)
+            if handle is None:
+                continue
+            handle.position = (placement.x, placement.y, placement.z)
+            label = self._label_handles[pid]
+            suffix = f" held by {placement.holder}" if placement.holder else ""
+            if placement.attached_to:
+                suffix = f" on {placement.attached_to}" + suffix
+            label.position = (placement.x, placement.y, placement.z + 0.06)
+            label.text = f"{pid}{suffix}"
+        self.show_arms(world.arms)
+
+    def show_arms(self, arms: dict[str, list[float]]) -> None:
+        if self.robot is None:
+            return
+        names = self.robot.get_actuated_joint_names()
+        cfg = np.zeros(len(names))
+        for arm in ARMS:
+            for suffix, value in zip(
+                ("s0", "s1", "e0", "e1", "w0", "w1", "w2"), arms[arm], strict=True
+            ):
+                name = f"{arm}_{suffix}"
+                if name in names:
+                    cfg[names.index(name)] = value
+        self.robot.update_cfg(cfg)

@@ -1,0 +1,109 @@
+"""The world at a plan node: where each part is drawn and where each arm stands.
+
+Pure functions of the plan and the bench geometry (no viser), so they are tested
+without a browser. Attached parts stand on their assembly at the connection point;
+held parts float a little above where they were taken; parts in the human's hands
+are drawn on the human's side of the bench.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from planner.feasibility.robot import HOME
+from planner.feasibility.scene import BENCH_TOP_Z, PartBox
+from planner.terms import constants, parse_term
+
+LIFT = 0.12  # metres above the bench for a part held by an arm
+HUMAN_HANDS_X = 1.55  # where the human holds parts, past the far edge of the bench
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Centre of a part's box and who holds it (an arm, "human", or None)."""
+
+    x: float
+    y: float
+    z: float
+    holder: str | None = None
+    attached_to: str | None = None
+
+
+@dataclass(frozen=True)
+class WorldView:
+    parts: dict[str, Placement]
+    arms: dict[str, list[float]]  # arm -> 7 joint values
+
+
+def parse_state(state: list[str]) -> tuple[dict[str, str], dict[str, tuple[str, str]], set[str]]:
+    """(holding arm -> part, attached part -> (onto, connection), parts the human holds)."""
+    holding: dict[str, str] = {}
+    attached: dict[str, tuple[str, str]] = {}
+    human: set[str] = set()
+    for fluent in state:
+        term = parse_term(fluent)
+        args = constants(term) or ()
+        if term.name == "holding" and len(args) == 2:
+            holding[args[0]] = args[1]
+        elif term.name == "attached" and len(args) == 3:
+            attached[args[0]] = (args[1], args[2])
+        elif term.name == "humanHoldingPart" and len(args) == 1:
+            human.add(args[0])
+    return holding, attached, human
+
+
+def place_parts(boxes: dict[str, PartBox], state: list[str]) -> dict[str, Placement]:
+    holding, attached, human = parse_state(state)
+    held_by = {part: arm for arm, part in holding.items()}
+    out: dict[str, Placement] = {}
+
+    def place(pid: str) -> Placement:
+        if pid in out:
+            return out[pid]
+        box = boxes[pid]
+        if pid in attached:
+            onto, point = attached[pid]
+            base = place(onto)
+            x, y = base.x, base.y
+            sites = boxes[onto].sites()
+            if onto not in attached and point in sites:
+                # Offsets of the site from the part's own centre, wherever it is drawn.
+                x += sites[point][0] - boxes[onto].x
+                y += sites[point][1] - boxes[onto].y
+            z = base.z + boxes[onto].size[2] / 2 + box.size[2] / 2
+            result = Placement(x, y, z, held_by.get(pid, base.holder), onto)
+        elif pid in held_by:
+            result = Placement(box.x, box.y, BENCH_TOP_Z + box.size[2] / 2 + LIFT, held_by[pid])
+        elif pid in human:
+            result = Placement(HUMAN_HANDS_X, box.y, BENCH_TOP_Z + 0.25, "human")
+        else:
+            result = Placement(box.x, box.y, BENCH_TOP_Z + box.size[2] / 2)
+        out[pid] = result
+        return result
+
+    for pid in boxes:
+        place(pid)
+    return out
+
+
+def arms_at(nodes: dict[str, Any], lineage: list[str]) -> dict[str, list[float]]:
+    """Each arm at the end of its latest motion along `lineage` (root first, the
+    selected node last, its own motion included); home if it has not moved."""
+    arms = {arm: list(q) for arm, q in HOME.items()}
+    for node_id in lineage:
+        motion = nodes[node_id].get("motion")
+        if motion and motion.get("path"):
+            arms[motion["arm"]] = list(motion["path"][-1])
+    return arms
+
+
+def world_at(nodes: dict[str, Any], lineage: list[str], boxes: dict[str, PartBox]) -> WorldView:
+    """The world as the selected node (last of `lineage`) leaves it: its own action
+    done, so clicking `hold(left,leg1)` shows leg1 in the left hand."""
+    node = nodes[lineage[-1]]
+    after = node["state"]
+    children = node.get("children") or []
+    if node.get("kind") == "actuation" and children:
+        after = nodes[children[0]["node"]]["state"]
+    return WorldView(place_parts(boxes, after), arms_at(nodes, lineage))

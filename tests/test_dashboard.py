@@ -1,0 +1,135 @@
+"""The dashboard in a real browser: Debian's chromium driven by playwright.
+
+Screenshots of the key views go to tests/artifacts/ for people to look at.
+"""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("playwright.sync_api")
+from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
+
+from app.dashboard.server import Dashboard  # noqa: E402
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
+
+
+def wait_for(condition: Callable[[], object], timeout: float = 60.0) -> None:
+    end = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > end:
+            raise AssertionError("condition not met in time")
+        time.sleep(0.05)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Browser]:
+    if not Path(CHROMIUM).exists():
+        pytest.fail("chromium is missing: `make test` installs it (apt-get install chromium)")
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
+    cache = str(tmp_path_factory.mktemp("cache"))
+    d = Dashboard("127.0.0.1", free_port(), "default.toml", workers=1, cache_dir=cache)
+    yield d
+    d.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page.goto(f"http://127.0.0.1:{dashboard.server.get_port()}")
+    # "Connected" can show before the server knows the client (field notes).
+    wait_for(lambda: dashboard.server.get_clients())
+    page.get_by_text("Tandem", exact=False).first.wait_for()
+    yield page
+    page.close()
+
+
+def shot(page: Page, name: str) -> None:
+    ARTIFACTS.mkdir(exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
+
+
+def field(page: Page, label: str) -> object:
+    # viser's labels are not linked to their inputs: find the row by its label text.
+    text = page.get_by_text(label, exact=True).first
+    return text.locator("xpath=ancestor::*[.//input][1]").locator("input").first
+
+
+def test_page_shows_bench_robot_and_human(page: Page, dashboard: Dashboard) -> None:
+    page.get_by_role("button", name="Plan", exact=True).wait_for()
+    assert page.get_by_text("Scenario paper-base").count() >= 1 or "paper-base" in page.content()
+    assert dashboard.bench.robot is not None
+    assert set(dashboard.bench.boxes) == {"top", "leg1", "leg2", "foot1", "foot2"}
+    page.locator("canvas").first.wait_for()
+    time.sleep(3.0)  # software WebGL: let the meshes arrive and render
+    shot(page, "bench")
+
+
+def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Dashboard) -> None:
+    page.get_by_role("button", name="Plan", exact=True).click()
+    wait_for(lambda: dashboard.job is not None and dashboard.job.status.state == "done", 120)
+    assert dashboard.tree.current is not None and len(dashboard.tree.current.positions) >= 10
+    assert dashboard.doc is not None and dashboard.selected == dashboard.doc["root"]
+    page.get_by_text("statistic").wait_for()
+    time.sleep(2.0)
+    shot(page, "plan-tree")
+    # Go to the root's child with the panel, aim the camera at it, back to the root...
+    root = dashboard.doc["root"]
+    child = dashboard.doc["nodes"][root]["children"][0]["node"]
+    page.get_by_role("button", name="next", exact=True).click()
+    wait_for(lambda: dashboard.selected == child)
+    page.get_by_role("button", name="Selected", exact=True).click()
+    page.get_by_role("button", name="Parent", exact=True).click()
+    wait_for(lambda: dashboard.selected == root)
+    time.sleep(2.0)
+    # ...then click the node in the 3D tree, in the middle of the view.
+    canvas = page.locator("canvas").first.bounding_box()
+    assert canvas is not None
+    page.mouse.click(canvas["x"] + canvas["width"] / 2, canvas["y"] + canvas["height"] / 2)
+    wait_for(lambda: dashboard.selected == child, 20)
+    action = dashboard.doc["nodes"][child]["action"]
+    page.get_by_text(action, exact=True).first.wait_for()
+    shot(page, "node-selected")
+    page.get_by_role("button", name="Bench", exact=True).click()
+    time.sleep(2.0)
+    shot(page, "bench-at-node")
+
+
+def test_malformed_scenario_shows_an_error_and_the_page_keeps_working(
+    page: Page, dashboard: Dashboard, tmp_path: Path
+) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "bad"\n[[parts]]\nid = "top"\n')
+    box = field(page, "File")
+    box.fill(str(bad))  # type: ignore[attr-defined]
+    page.get_by_role("button", name="Open file", exact=True).click()
+    page.get_by_text("Error:", exact=False).first.wait_for()
+    assert "bad.toml" in page.content()
+    shot(page, "scenario-error")
+    # The previous scenario is still loaded and plans.
+    assert dashboard.loaded is not None and dashboard.loaded.scenario is not None
+    before = dashboard.job
+    page.get_by_role("button", name="Plan", exact=True).click()
+    wait_for(lambda: dashboard.job is not before and dashboard.job is not None, 20)
+    wait_for(lambda: dashboard.job is not None and dashboard.job.status.state == "done", 120)

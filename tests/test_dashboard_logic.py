@@ -1,0 +1,103 @@
+"""The dashboard's pure parts, without a browser: tree layout, world at a node, edits."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from app.dashboard import scenario_edit
+from app.dashboard.tree_layout import SpanningTree, layout
+from app.dashboard.world import place_parts, world_at
+from planner.feasibility.robot import HOME
+from planner.feasibility.scene import part_boxes
+from planner.planning import plan_scenario
+from planner.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+DEFAULT = ROOT / "static" / "scenarios" / "default.toml"
+
+
+@pytest.fixture(scope="module")
+def doc(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    cache = tmp_path_factory.mktemp("cache")
+    return plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=cache).plan.doc
+
+
+def test_spanning_tree_covers_every_node_once(doc: dict[str, Any]) -> None:
+    tree = SpanningTree.of(doc)
+    assert set(tree.depth) == set(doc["nodes"])
+    edges = sum(len(n["children"]) for n in doc["nodes"].values())
+    assert len(tree.parent) + len(tree.shared) == edges
+    leaf = next(n for n in doc["nodes"] if not doc["nodes"][n]["children"])
+    lineage = tree.lineage(leaf)
+    assert lineage[0] == doc["root"] and lineage[-1] == leaf
+
+
+def test_layout_puts_parents_over_children_and_collapses(doc: dict[str, Any]) -> None:
+    tree = SpanningTree.of(doc)
+    full = layout(tree, set())
+    assert set(full.positions) == set(doc["nodes"])
+    for edge in (e for e in full.edges if not e.shared):
+        assert full.positions[edge.child][1] > full.positions[edge.parent][1]
+    # No two nodes on one spot.
+    assert len(set(full.positions.values())) == len(full.positions)
+    root = doc["root"]
+    first = tree.children[root][0][1]
+    folded = layout(tree, {first})
+    assert folded.hidden_below[first] == tree.subtree_size(first) - 1
+    assert len(folded.positions) == len(full.positions) - folded.hidden_below[first]
+    # The default view keeps the expected branch open.
+    collapsed = tree.default_collapsed(doc, budget=10)
+    shown = layout(tree, collapsed).positions
+    node = root
+    while doc["nodes"][node]["children"]:
+        assert node in shown
+        kids = doc["nodes"][node]["children"]
+        expected = doc["nodes"][node].get("expected")
+        node = next((k["node"] for k in kids if k["outcome"] == expected), kids[0]["node"])
+
+
+def test_world_at_a_node_shows_its_action_done(doc: dict[str, Any]) -> None:
+    boxes = part_boxes(load_scenario(DEFAULT))
+    tree = SpanningTree.of(doc)
+    nodes = doc["nodes"]
+    hold = next(i for i, n in nodes.items() if str(n["action"]).startswith("hold(left,"))
+    part = nodes[hold]["action"][len("hold(left,") : -1]
+    view = world_at(nodes, tree.lineage(hold), boxes)
+    assert view.parts[part].holder == "left"
+    assert view.parts[part].z > boxes[part].top_z  # lifted off the bench
+    assert view.arms["left"] == nodes[hold]["motion"]["path"][-1]
+    assert view.arms["right"] == HOME["right"] or any(
+        nodes[n].get("motion", {}).get("arm") == "right" for n in tree.lineage(hold)
+    )
+    placed = place_parts(boxes, ["attached(leg1,top,c1)", "attached(foot1,leg1,foot)"])
+    top_c1 = boxes["top"].sites()["c1"]
+    assert (placed["leg1"].x, placed["leg1"].y) == pytest.approx(top_c1)
+    assert placed["foot1"].z > placed["leg1"].z > placed["top"].z
+    assert placed["foot1"].attached_to == "leg1"
+    human = place_parts(boxes, ["humanHoldingPart(leg2)"])
+    assert human["leg2"].holder == "human" and human["leg2"].x > boxes["leg2"].x
+
+
+def test_scenario_edits_validate_and_save(tmp_path: Path) -> None:
+    loaded = scenario_edit.load_file("default.toml")
+    assert loaded.scenario is not None
+    changed = scenario_edit.edit(
+        loaded.text, loaded.source, safety="strict", dangerous={"foot2": True},
+        region={"leg1": "shared"},
+    )  # fmt: skip
+    assert changed.scenario is not None
+    assert changed.scenario.preferences.safety == "strict"
+    assert changed.scenario.part("foot2").dangerous
+    assert changed.scenario.part("leg1").region == "shared"
+    assert changed.scenario.part("leg1").pose is None  # re-placed inside its new region
+    bad = scenario_edit.edit(loaded.text, loaded.source, region={"leg1": "moon"})
+    assert bad.scenario is None and "moon" in bad.error and "\n" not in bad.error
+    out = scenario_edit.save(changed.text, tmp_path / "mine.toml")
+    assert load_scenario(out).preferences.safety == "strict"
+    with pytest.raises(ValueError, match="exists already"):
+        scenario_edit.save(changed.text, out)
+    assert scenario_edit.load_file(tmp_path / "missing.toml").error
+    assert scenario_edit.shipped_scenarios()[0] == "default.toml"
