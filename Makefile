@@ -22,8 +22,9 @@ run: $(STAMP)
 test: $(STAMP) browser
 	$(BIN)/pytest -q
 
-bench: $(STAMP)
+bench: $(STAMP) browser
 	$(BIN)/tandem bench
+	$(BIN)/python -m app.dashboard.bench
 
 lint: $(STAMP)
 	$(BIN)/ruff check planner app tests

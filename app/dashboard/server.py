@@ -40,15 +40,17 @@ class Dashboard:
         self.server.gui.configure_theme(control_width="large", show_logo=False)
         self.workers = workers
         self.cache_dir = cache_dir
-        self.bench = BenchScene(self.server, load_models=load_models)
-        self.tree = TreeView(self.server, self.select)
         self.loaded: scenario_edit.Loaded | None = None
         self.job: PlanningJob | None = None
         self.doc: dict[str, Any] | None = None
         self.selected: str | None = None
         self._last_live = 0.0
         self._lock = threading.Lock()
+        # Panels first: a new page gets messages in creation order, so it can be used
+        # while the robot's meshes (~5 MB) are still arriving.
         self._build_gui()
+        self.bench = BenchScene(self.server, load_models=load_models)
+        self.tree = TreeView(self.server, self.select)
         self.server.on_client_connect(self._on_connect)
         self.open_scenario(scenario_path)
 

@@ -1,0 +1,99 @@
+"""Dashboard benchmark: page load to interactive, and the server-side cost of a click
+on a node of a large plan. `python -m app.dashboard.bench [SCENARIO]` prints a table.
+
+Times are medians; a click is what the scene's on_click handler runs: select the
+node, write its details, move the highlight, place parts and arms for that node.
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import shutil
+import socket
+import statistics
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from app.dashboard.server import Dashboard
+from planner.plan import format_table
+from planner.planning import plan_scenario
+from planner.scenario import load_scenario
+
+DEFAULT = Path(__file__).resolve().parents[2] / "static" / "scenarios" / "paper" / "U10.toml"
+
+
+def _port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def page_loads(dashboard: Dashboard, runs: int) -> list[float]:
+    """Seconds from navigation to a page whose Plan button works and whose client
+    the server knows (chromium, headless, software WebGL)."""
+    from playwright.sync_api import sync_playwright
+
+    chromium = shutil.which("chromium") or "/usr/bin/chromium"
+    out = []
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+        for _ in range(runs):
+            page = browser.new_page(viewport={"width": 1400, "height": 900})
+            before = set(dashboard.server.get_clients())
+            t0 = time.perf_counter()
+            page.goto(f"http://127.0.0.1:{dashboard.server.get_port()}")
+            page.get_by_role("button", name="Plan", exact=True).wait_for()
+            while not set(dashboard.server.get_clients()) - before:
+                time.sleep(0.01)
+            out.append(time.perf_counter() - t0)
+            page.close()
+        browser.close()
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m app.dashboard.bench")
+    parser.add_argument("scenario", nargs="?", default=str(DEFAULT))
+    parser.add_argument("--clicks", type=int, default=200)
+    parser.add_argument("--loads", type=int, default=5)
+    args = parser.parse_args(argv)
+    scenario = load_scenario(args.scenario)
+    t0 = time.perf_counter()
+    plan = plan_scenario(scenario, workers=0).plan
+    plan_s = time.perf_counter() - t0
+    dashboard = Dashboard("127.0.0.1", _port(), args.scenario)
+    try:
+        loads = page_loads(dashboard, args.loads)
+        dashboard.doc = plan.doc
+        dashboard.tree.show(plan.doc)
+        ids = list(plan.nodes)
+        rng = random.Random(0)
+        clicks = []
+        for node_id in rng.sample(ids, min(args.clicks, len(ids))):
+            t = time.perf_counter()
+            dashboard.select(node_id)
+            clicks.append(time.perf_counter() - t)
+        t = time.perf_counter()
+        dashboard.tree.toggle(plan.root)
+        dashboard.tree.toggle(plan.root)
+        redraw_s = (time.perf_counter() - t) / 2
+    finally:
+        dashboard.close()
+    rows: list[tuple[str, ...]] = [
+        ("plan", scenario.name, f"{plan.stats['dag_nodes']} nodes ({plan.stats['N']} unfolded)",
+         f"{plan_s:.2f} s"),
+        ("page load to interactive", f"{len(loads)} loads",
+         f"median {statistics.median(loads):.2f} s", f"max {max(loads):.2f} s"),
+        ("node click (server)", f"{len(clicks)} clicks",
+         f"median {1000 * statistics.median(clicks):.1f} ms", f"max {1000 * max(clicks):.1f} ms"),
+        ("collapse/expand redraw", "root", f"{1000 * redraw_s:.0f} ms", ""),
+    ]  # fmt: skip
+    print(format_table(("measure", "on", "result", "spread"), rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
