@@ -9,12 +9,14 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from app import cli_dashboard
+from app import cli_dashboard, cli_execute
 from planner import cli as planner_cli
 
 APP_SUBCOMMANDS: list[tuple[str, str, planner_cli.Register]] = [
     ("dashboard", "the browser dashboard: bench, planning, plan tree", cli_dashboard.register),
 ]
+APP_SUBCOMMANDS.append(("execute", "run a plan, one branch", cli_execute.register_execute))
+APP_SUBCOMMANDS.append(("sessions", "stored executions", cli_execute.register_sessions))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -13,9 +13,10 @@ _made: list[str] = []
 
 def pytest_configure(config: pytest.Config) -> None:
     # Set before any test runs, so subprocesses (the CLI) inherit it too.
-    folder = tempfile.mkdtemp(prefix="tandem-test-cache-")
-    _made.append(folder)
-    os.environ["TANDEM_CACHE_DIR"] = folder
+    for variable in ("TANDEM_CACHE_DIR", "TANDEM_DATA_DIR"):
+        folder = tempfile.mkdtemp(prefix=f"tandem-test-{variable[7:11].lower()}-")
+        _made.append(folder)
+        os.environ[variable] = folder
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:

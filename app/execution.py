@@ -1,0 +1,277 @@
+"""Running a `tandem-plan/1` document: one branch, from the root to a leaf.
+
+The `Executor` walks the plan node by node. An actuation node emits a motion
+event (the arm's joint path); a communication node without outcomes emits
+what the robot says; a node with outcomes (sensing, or a question to the
+human) asks the `OutcomeSource` which one happened and follows that branch.
+Every step is an `ExecutionEvent` handed to the listeners (the session store,
+the dashboard, a log). It runs synchronously (`run()`) or in its own thread
+(`start()`), and can be paused, single-stepped, resumed and aborted from
+any thread.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from app.outcomes import Outcome, OutcomeError, OutcomeSource, describe
+
+Result = Literal["goal", "aborted", "interrupted", "dead-end"]
+RESULTS: tuple[Result, ...] = ("goal", "aborted", "interrupted", "dead-end")
+
+
+@dataclass(frozen=True)
+class ExecutionEvent:
+    """One step of an execution: the node run and how it turned out.
+
+    `kind` is the node's kind (actuation, sensing, communication, goal);
+    `outcome` is the branch taken (None after a deterministic node); `text`
+    is what the robot said, or the outcome in words. `motion` (actuation
+    only) is the node's `{arm, joints, path}`; it is not stored, the plan has it.
+    """
+
+    seq: int
+    time: float  # seconds since the epoch
+    node: str
+    action: str | None
+    kind: str
+    outcome: str | None = None
+    source: str | None = None
+    confidence: float | None = None
+    text: str | None = None
+    motion: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
+
+
+Listener = Callable[[ExecutionEvent], None]
+
+
+class _Aborted(Exception):
+    pass
+
+
+class Executor:
+    """Walks `plan_doc` from its root, asking `source` at every branching node.
+
+    `step_delay` seconds pass after every step but the last (the time a motion
+    or a sentence takes). Controls (`pause`, `resume`, `step`, `abort`) are
+    safe from any thread; `result` is set once the walk ends.
+    """
+
+    def __init__(
+        self,
+        plan_doc: Mapping[str, Any],
+        source: OutcomeSource,
+        listeners: Iterable[Listener] = (),
+        step_delay: float = 0.0,
+        max_steps: int = 10_000,
+    ) -> None:
+        self.plan = plan_doc
+        self.nodes: Mapping[str, Mapping[str, Any]] = plan_doc["nodes"]
+        self.source = source
+        self.listeners = list(listeners)
+        self.step_delay = step_delay
+        self.max_steps = max_steps
+        self.result: Result | None = None
+        self.error: BaseException | None = None
+        self.current: str | None = None  # the node being run
+        self.events: list[ExecutionEvent] = []
+        self._cond = threading.Condition()
+        self._paused = False
+        self._credits = 0  # steps allowed while paused
+        self._aborted = False
+        self._thread: threading.Thread | None = None
+        self._done = threading.Event()
+
+    # -- controls (any thread) ------------------------------------------------
+
+    def pause(self) -> None:
+        with self._cond:
+            self._paused = True
+            self._credits = 0
+            self._cond.notify_all()
+
+    def resume(self) -> None:
+        with self._cond:
+            self._paused = False
+            self._credits = 0
+            self._cond.notify_all()
+
+    def step(self) -> None:
+        """Single-step mode: pauses, and lets exactly one more node run."""
+        with self._cond:
+            self._paused = True
+            self._credits += 1
+            self._cond.notify_all()
+
+    def abort(self) -> None:
+        with self._cond:
+            self._aborted = True
+            self._cond.notify_all()
+        interrupt = getattr(self.source, "interrupt", None)
+        if callable(interrupt):
+            interrupt()
+
+    @property
+    def paused(self) -> bool:
+        with self._cond:
+            return self._paused
+
+    @property
+    def aborted(self) -> bool:
+        with self._cond:
+            return self._aborted
+
+    @property
+    def done(self) -> bool:
+        return self._done.is_set()
+
+    # -- running --------------------------------------------------------------
+
+    def start(self) -> threading.Thread:
+        """Runs in a daemon thread; `wait()` for the result."""
+        if self._thread is not None:
+            raise RuntimeError("this execution has already started")
+        self._thread = threading.Thread(target=self._run_quietly, name="executor", daemon=True)
+        self._thread.start()
+        return self._thread
+
+    def wait(self, timeout: float | None = None) -> Result | None:
+        self._done.wait(timeout)
+        return self.result
+
+    def _run_quietly(self) -> None:
+        try:
+            self.run()
+        except BaseException as err:  # kept for the caller; the thread must not die loudly
+            self.error = err
+
+    def run(self) -> Result:
+        """Walks the plan in this thread and returns how it ended."""
+        try:
+            self.result = self._walk()
+        except BaseException:
+            self.result = "aborted"
+            raise
+        finally:
+            self.current = None
+            self._done.set()
+        return self.result
+
+    def _walk(self) -> Result:
+        node_id: str = self.plan["root"]
+        for _ in range(self.max_steps):
+            try:
+                self._gate()
+            except _Aborted:
+                return "aborted"
+            node = self.nodes.get(node_id)
+            if node is None:
+                return "dead-end"
+            self.current = node_id
+            if node["kind"] == "goal":
+                self._emit(node_id, node, text="The table is assembled.")
+                return "goal"
+            children = node.get("children") or []
+            if not children:
+                self._emit(node_id, node, text="no way on from here")
+                return "dead-end"
+            options = [c["outcome"] for c in children if c["outcome"] is not None]
+            if not options:
+                text = node.get("say") if node["kind"] == "communication" else None
+                self._emit(node_id, node, text=text, motion=node.get("motion"))
+                next_id: str = children[0]["node"]
+            else:
+                try:
+                    outcome = self._ask(node_id, node, options)
+                except _Aborted:
+                    return "aborted"
+                text = node.get("say") if node["kind"] == "communication" else outcome.text
+                self._emit(
+                    node_id,
+                    node,
+                    outcome=outcome.label,
+                    source=outcome.source,
+                    confidence=outcome.confidence,
+                    text=text or describe(node.get("action"), outcome.label),
+                )
+                next_id = next(c["node"] for c in children if c["outcome"] == outcome.label)
+            try:
+                self._sleep(self.step_delay)
+            except _Aborted:
+                return "aborted"
+            node_id = next_id
+        return "dead-end"
+
+    def _gate(self) -> None:
+        """Waits while paused (unless a single step is allowed); raises when aborted."""
+        with self._cond:
+            while True:
+                if self._aborted:
+                    raise _Aborted
+                if not self._paused:
+                    return
+                if self._credits > 0:
+                    self._credits -= 1
+                    return
+                self._cond.wait()
+
+    def _sleep(self, seconds: float) -> None:
+        if seconds <= 0:
+            if self.aborted:
+                raise _Aborted
+            return
+        deadline = time.monotonic() + seconds
+        with self._cond:
+            while not self._aborted:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return
+                self._cond.wait(left)
+            raise _Aborted
+
+    def _ask(self, node_id: str, node: Mapping[str, Any], options: list[str]) -> Outcome:
+        """The source's outcome; asks again while it has no answer, until aborted."""
+        while True:
+            if self.aborted:
+                raise _Aborted
+            outcome = self.source.choose(node_id, node, options)
+            if outcome is None:
+                # No answer yet (a click timed out): ask again, unless aborted.
+                time.sleep(0.01)
+                continue
+            if outcome.label not in options:
+                raise OutcomeError(
+                    f"'{outcome.label}' is not an outcome of {node.get('action')} at {node_id}"
+                )
+            return outcome
+
+    def _emit(
+        self,
+        node_id: str,
+        node: Mapping[str, Any],
+        *,
+        outcome: str | None = None,
+        source: str | None = None,
+        confidence: float | None = None,
+        text: str | None = None,
+        motion: Mapping[str, Any] | None = None,
+    ) -> None:
+        event = ExecutionEvent(
+            seq=len(self.events),
+            time=time.time(),
+            node=node_id,
+            action=node.get("action"),
+            kind=node["kind"],
+            outcome=outcome,
+            source=source,
+            confidence=confidence,
+            text=text,
+            motion=motion,
+        )
+        self.events.append(event)
+        for listener in self.listeners:
+            listener(event)

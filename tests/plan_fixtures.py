@@ -1,0 +1,57 @@
+"""Real plans of the shipped scenarios, planned once per test run (workers=1)."""
+
+from __future__ import annotations
+
+import functools
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+from planner.planning import plan_scenario
+from planner.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENARIOS = ROOT / "static" / "scenarios"
+PAPER_NAMES = [f"paper-{i:02d}" for i in range(1, 16)]
+
+
+@functools.cache
+def _planned(path: str) -> str:
+    return json.dumps(plan_scenario(load_scenario(path), workers=1).plan.doc)
+
+
+def plan_of(path: Path) -> dict[str, Any]:
+    """A fresh copy of the plan of scenario `path` (planned once, then cached)."""
+    doc: dict[str, Any] = json.loads(_planned(str(path)))
+    return doc
+
+
+def paper_plan(name: str) -> dict[str, Any]:
+    return plan_of(SCENARIOS / "paper" / f"{name}.toml")
+
+
+def default_plan() -> dict[str, Any]:
+    return plan_of(SCENARIOS / "default.toml")
+
+
+def tandem_command() -> list[str]:
+    # The installed console script when the venv has one, else the same entry point.
+    script = shutil.which("tandem", path=str(Path(sys.executable).parent))
+    return [script] if script else [sys.executable, "-m", "app.cli"]
+
+
+def tandem(
+    *args: str, env: dict[str, str] | None = None, stdin: str | None = None
+) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [*tandem_command(), *args],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env=env,
+        input=stdin,
+        timeout=300,
+    )
