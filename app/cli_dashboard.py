@@ -13,6 +13,10 @@ def register(parser: argparse.ArgumentParser) -> None:
         "--scenario", default="default.toml", help="scenario file, or a name under static/scenarios"
     )
     parser.add_argument("--workers", type=int, default=0, help="planner processes (0: all cores)")
+    parser.add_argument(
+        "--data-dir",
+        help="where sessions are stored (default: $TANDEM_DATA_DIR or ~/.local/share/tandem)",
+    )
     parser.set_defaults(run=run)
 
 
@@ -21,7 +25,9 @@ def run(args: argparse.Namespace) -> int:
     from app.dashboard.server import Dashboard
 
     try:
-        dashboard = Dashboard(args.host, args.port, args.scenario, workers=args.workers)
+        dashboard = Dashboard(
+            args.host, args.port, args.scenario, workers=args.workers, data_dir=args.data_dir
+        )
     except OSError as err:
         print(f"dashboard: cannot listen on {args.host}:{args.port}: {err.strerror or err}")
         return 2

@@ -133,3 +133,58 @@ def test_malformed_scenario_shows_an_error_and_the_page_keeps_working(
     page.get_by_role("button", name="Plan", exact=True).click()
     wait_for(lambda: dashboard.job is not before and dashboard.job is not None, 20)
     wait_for(lambda: dashboard.job is not None and dashboard.job.status.state == "done", 120)
+
+
+def test_click_through_an_execution_then_review_it(page: Page, dashboard: Dashboard) -> None:
+    from app.store import is_plan_path
+
+    if dashboard.doc is None or "stats" not in dashboard.doc:
+        page.get_by_role("button", name="Plan", exact=True).click()
+        wait_for(lambda: dashboard.job is not None and dashboard.job.status.state == "done", 120)
+    speed = dashboard.execution.speed
+    speed.value = 0.0  # no pauses between steps: the test clicks as fast as it can
+    page.get_by_role("button", name="Execute plan", exact=True).click()
+    wait_for(lambda: dashboard.execution.executor is not None)
+    executor = dashboard.execution.executor
+    assert executor is not None
+    answered = 0
+    while not executor.done:
+        offer = dashboard.execution.clicks.pending() if dashboard.execution.clicks else None
+        if offer is None:
+            time.sleep(0.05)
+            continue
+        # The human's answers, as the simulated-human panel words them; take the last.
+        button = page.get_by_role("button", name=offer.words[-1], exact=True)
+        if answered == 0:
+            button.wait_for()
+            shot(page, "simulated-human")
+        try:
+            button.click(timeout=5000)
+        except Exception:
+            # The answered question's buttons vanish at once, sometimes while
+            # playwright still looks at the one it clicked; the loop looks again.
+            pass
+        answered += 1
+        wait_for(lambda o=offer: dashboard.execution.clicks.pending() != o or executor.done)
+    assert executor.result == "goal", executor.events
+    clicked = [e for e in executor.events if e.outcome is not None]
+    assert clicked and all(e.source == "click" for e in clicked)
+    session_id = dashboard.execution.session_id
+    assert session_id is not None
+    wait_for(lambda: dashboard.store.get(session_id).result == "goal")
+    path = dashboard.store.path(session_id)
+    assert is_plan_path(dashboard.doc, path)
+    # The session is in the review list and replays the same path.
+    page.get_by_text("Review sessions").click()
+    page.get_by_role("button", name="Refresh list", exact=True).click()
+    label = next(k for k, v in dashboard.review._ids.items() if v == session_id)
+    page.get_by_role("button", name="Open session", exact=True).click()
+    wait_for(lambda: dashboard.review.session is not None)
+    assert dashboard.review.pick.value == label
+    replayed = []
+    for k in range(len(dashboard.review.events)):
+        dashboard.review.timeline.value = k
+        wait_for(lambda k=k: dashboard.selected == dashboard.review.events[k].node)
+        replayed.append((dashboard.selected, dashboard.review.events[k].outcome))
+    assert replayed == path
+    shot(page, "review")

@@ -10,10 +10,13 @@ import viser
 
 from app.dashboard import scenario_edit
 from app.dashboard.bench_scene import BenchScene
+from app.dashboard.execution_panel import ExecutionPanel
 from app.dashboard.node_details import details_markdown, stats_html
 from app.dashboard.planning_job import JobStatus, PlanningJob, partial_doc
+from app.dashboard.review_panel import ReviewPanel
 from app.dashboard.tree_view import WALL_X, TreeView
 from app.dashboard.world import world_at
+from app.store import SessionStore
 
 LIVE_REDRAW_S = 0.5  # at most two redraws of the growing tree per second
 CAMERAS = {
@@ -33,6 +36,7 @@ class Dashboard:
         *,
         workers: int = 0,
         cache_dir: str | None = None,
+        data_dir: str | None = None,
         load_models: bool = True,
     ) -> None:
         self.server = viser.ViserServer(host=host, port=port, label="Tandem", verbose=False)
@@ -49,8 +53,12 @@ class Dashboard:
         # Panels first: a new page gets messages in creation order, so it can be used
         # while the robot's meshes (~5 MB) are still arriving.
         self._build_gui()
+        self.store = SessionStore(data_dir)
+        self.execution = ExecutionPanel(self, self.store)
+        self.review = ReviewPanel(self, self.store)
         self.bench = BenchScene(self.server, load_models=load_models)
         self.tree = TreeView(self.server, self.select)
+        self.current_arms: dict[str, list[float]] = {}
         self.server.on_client_connect(self._on_connect)
         self.open_scenario(scenario_path)
 
@@ -138,6 +146,7 @@ class Dashboard:
             self.verbosity.value = scenario.preferences.verbosity
         self._rebuild_part_inputs()
         self.doc = None
+        self.execution.plan_ready(False)
         self.status.content = f"Scenario **{scenario.name}** ({len(scenario.parts)} parts)."
 
     def _rebuild_part_inputs(self) -> None:
@@ -227,16 +236,21 @@ class Dashboard:
         self.cancel_button.disabled = True
         self.status.content = status.message
         if status.state == "done" and job is not None and job.plan is not None:
-            with self._lock:
-                self.doc = job.plan.doc
-                self.tree.show(self.doc)
-            self.stats.content = stats_html(job.plan.doc)
-            self.select(self.doc["root"])
+            self.show_plan(job.plan.doc)
             self.camera("Plan tree")
+
+    def show_plan(self, doc: dict[str, Any]) -> None:
+        """A complete plan (planned here or stored with a session) in the tree and panels."""
+        with self._lock:
+            self.doc = doc
+            self.tree.show(doc)
+        self.stats.content = stats_html(doc)
+        self.select(doc["root"])
+        self.execution.plan_ready(True)
 
     # -- the selected node ----------------------------------------------------------
 
-    def select(self, node_id: str) -> None:
+    def select(self, node_id: str, *, show_world: bool = True) -> None:
         """Show a node: its details, and the bench as the node leaves it."""
         with self._lock:
             doc, tree = self.doc, self.tree.tree
@@ -247,7 +261,10 @@ class Dashboard:
             node = doc["nodes"][node_id]
             self.details.content = details_markdown(node_id, node)
             self.tree.highlight(node_id)
-            self.bench.show(world_at(doc["nodes"], lineage, self.bench.boxes))
+            if show_world:
+                world = world_at(doc["nodes"], lineage, self.bench.boxes)
+                self.bench.show(world)
+                self.current_arms = world.arms
             self.toggle_button.disabled = not node["children"]
             self.parent_button.disabled = len(lineage) < 2
             self._child_buttons(node)
@@ -283,4 +300,7 @@ class Dashboard:
     def close(self) -> None:
         if self.job is not None:
             self.job.cancel()
+        if self.execution.executor is not None:
+            self.execution.executor.abort()
         self.server.stop()
+        self.store.close()

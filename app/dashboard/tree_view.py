@@ -8,6 +8,7 @@ camera looks straight at it; orbit controls give zoom and pan.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -49,6 +50,8 @@ class TreeView:
         self.current: TreeLayout | None = None
         self._handles: list[viser.SceneNodeHandle] = []
         self._highlight: viser.BoxHandle | None = None
+        # Planning, execution and clicks redraw from different threads.
+        self._lock = threading.RLock()
 
     # -- geometry ---------------------------------------------------------------
 
@@ -90,10 +93,16 @@ class TreeView:
     def expand_to(self, node_id: str) -> None:
         """Open every collapsed ancestor so `node_id` is visible."""
         assert self.tree is not None
-        self.collapsed -= set(self.tree.lineage(node_id)[:-1])
-        self.redraw()
+        hidden = set(self.tree.lineage(node_id)[:-1]) & self.collapsed
+        if hidden:  # redraw only when something opens
+            self.collapsed -= hidden
+            self.redraw()
 
     def redraw(self) -> None:
+        with self._lock:
+            self._redraw()
+
+    def _redraw(self) -> None:
         assert self.doc is not None and self.tree is not None
         for handle in self._handles:
             handle.remove()
@@ -167,6 +176,10 @@ class TreeView:
                 )
 
     def highlight(self, node_id: str) -> None:
+        with self._lock:
+            self._highlight_node(node_id)
+
+    def _highlight_node(self, node_id: str) -> None:
         if self.current is None or node_id not in self.current.positions:
             return
         x, y, z = self.world(node_id)

@@ -1,0 +1,120 @@
+"""Reviewing stored sessions: list with filters, replay on a timeline, export."""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from datetime import date
+from typing import TYPE_CHECKING, Any
+
+import viser
+
+from app.store import SessionRecord, SessionStore, UnknownSession, iso
+
+if TYPE_CHECKING:
+    from app.dashboard.server import Dashboard
+
+ANY = "any"
+RESULTS = (ANY, "goal", "aborted", "interrupted", "dead-end")
+NONE = "(no sessions)"
+
+
+def session_label(s: SessionRecord) -> str:
+    return f"#{s.id} {s.scenario} {s.result or 'running'} {iso(s.started)[:19]}"
+
+
+class ReviewPanel:
+    def __init__(self, dashboard: Dashboard, store: SessionStore) -> None:
+        self.dashboard = dashboard
+        self.store = store
+        self.events: list[Any] = []
+        self.session: SessionRecord | None = None
+        self._ids: dict[str, int] = {}
+        gui = dashboard.server.gui
+        with gui.add_folder("Review sessions", expand_by_default=False):
+            self.scenario_filter: Any = gui.add_text("Scenario", "")
+            self.result_filter: Any = gui.add_dropdown("Result", RESULTS)
+            self.since_filter: Any = gui.add_text("Since (YYYY-MM-DD)", "")
+            gui.add_button("Refresh list").on_click(lambda _: self.refresh())
+            self.pick: Any = gui.add_dropdown("Session", [NONE])
+            gui.add_button("Open session").on_click(lambda _: self.open(self.pick.value))
+            self.timeline: Any = gui.add_slider("Timeline", 0, 1, 1, 0, disabled=True)
+            self.timeline.on_update(lambda _: self.show_step(int(self.timeline.value)))
+            gui.add_button("Replay").on_click(lambda _: self._replay())
+            export = gui.add_button("Export JSON")
+            export.on_click(lambda event: self._export(event.client))
+            self.summary = gui.add_markdown("")
+        self.refresh()
+
+    def refresh(self) -> None:
+        since = None
+        text = str(self.since_filter.value).strip()
+        if text:
+            try:
+                since = date.fromisoformat(text)
+            except ValueError:
+                self.summary.content = f"**Error:** {text!r} is not a date (YYYY-MM-DD)."
+                return
+        result = self.result_filter.value
+        sessions = self.store.list_sessions(
+            scenario=str(self.scenario_filter.value).strip() or None,
+            result=None if result == ANY else result,
+            since=since,
+        )
+        self._ids = {session_label(s): s.id for s in reversed(sessions)}  # newest first
+        options = list(self._ids) or [NONE]
+        self.pick.options = options
+        self.pick.value = options[0]
+        self.summary.content = f"{len(sessions)} session(s)."
+
+    def open(self, label: str) -> None:
+        session_id = self._ids.get(label)
+        if session_id is None:
+            return
+        try:
+            self.session = self.store.get(session_id)
+            self.events = self.store.events(session_id)
+            doc = self.store.plan(self.session.plan_hash)
+        except UnknownSession as err:
+            self.summary.content = f"**Error:** {err}"
+            return
+        self.dashboard.show_plan(doc)
+        last = max(0, len(self.events) - 1)
+        self.timeline.max = max(1, last)
+        self.timeline.disabled = not self.events
+        self.timeline.value = 0
+        self.show_step(0)
+
+    def show_step(self, k: int) -> None:
+        if not self.events or self.session is None:
+            return
+        k = min(max(0, k), len(self.events) - 1)
+        event = self.events[k]
+        self.dashboard.tree.expand_to(event.node)
+        self.dashboard.select(event.node)
+        spoken = [
+            f"`{e.node}` {e.action or 'goal'}"
+            + (f" → **{e.outcome}**" if e.outcome else "")
+            + (f": {e.text}" if e.text else "")
+            for e in self.events[: k + 1]
+        ]
+        s = self.session
+        self.summary.content = "\n\n".join(
+            [f"Session #{s.id} ({s.scenario}, {s.result}), step {k + 1}/{len(self.events)}"]
+            + spoken[-8:]
+        )
+
+    def _replay(self) -> None:
+        def run() -> None:
+            for k in range(len(self.events)):
+                self.timeline.value = k
+                time.sleep(0.3)
+
+        threading.Thread(target=run, name="replay", daemon=True).start()
+
+    def _export(self, client: viser.ClientHandle | None) -> None:
+        if self.session is None or client is None:
+            return
+        content = json.dumps(self.store.export(self.session.id), indent=1).encode()
+        client.send_file_download(f"tandem-session-{self.session.id}.json", content)
