@@ -21,7 +21,9 @@ from planner.plan import KIND_COLOURS
 WALL_X = 8.0
 SCALE = 0.25  # metres per layout unit
 TOP_Z = 2.0  # the root's height on the wall
-LABEL_LIMIT = 160  # more visible nodes than this: labels only around the selection
+# More visible nodes than this: labels only on the expected branch and around the
+# selection, since screen-sized labels of neighbouring columns would overlap.
+LABEL_LIMIT = 40
 PREFIX = "/tree"
 OPEN_COLOUR = (235, 235, 235)
 SELECTED = (220, 30, 160)
@@ -50,6 +52,8 @@ class TreeView:
         self.current: TreeLayout | None = None
         self._handles: list[viser.SceneNodeHandle] = []
         self._highlight: viser.BoxHandle | None = None
+        self._near_selection: list[viser.SceneNodeHandle] = []
+        self.labelled_all = True
         # Planning, execution and clicks redraw from different threads.
         self._lock = threading.RLock()
 
@@ -104,14 +108,15 @@ class TreeView:
 
     def _redraw(self) -> None:
         assert self.doc is not None and self.tree is not None
-        for handle in self._handles:
+        for handle in self._handles + self._near_selection:
             handle.remove()
-        self._handles = []
+        self._handles, self._near_selection = [], []
         self.current = layout(self.tree, self.collapsed)
         nodes = self.doc["nodes"]
         scene = self.server.scene
         size = (0.02, 0.7 * SCALE, 0.45 * SCALE)
-        labelled = len(self.current.positions) <= LABEL_LIMIT
+        labelled = self.labelled_all = len(self.current.positions) <= LABEL_LIMIT
+        branch = self._expected_branch()
         for node_id in self.current.positions:
             node = nodes[node_id]
             kind = node["kind"]
@@ -123,21 +128,34 @@ class TreeView:
             box.on_click(self._clicked(node_id))
             self._handles.append(box)
             hidden = self.current.hidden_below.get(node_id)
-            if labelled or hidden:
-                text = short(node["action"], kind) if labelled else ""
+            named = labelled or node_id in branch
+            if named or hidden:
+                text = short(node["action"], kind) if named else ""
                 if hidden:
                     text += f"  [+{hidden}]"
-                x, y, z = self.world(node_id)
-                self._handles.append(
-                    scene.add_label(
-                        f"{PREFIX}/labels/{node_id}",
-                        text.strip(),
-                        position=(x - 0.02, y, z + 0.3 * SCALE),
-                        anchor="bottom-center",
-                        font_screen_scale=0.7,
-                    )  # fmt: skip
-                )
+                self._handles.append(self._label(node_id, text.strip()))
         self._draw_edges(labelled)
+
+    def _label(self, node_id: str, text: str, name: str = "labels") -> viser.LabelHandle:
+        x, y, z = self.world(node_id)
+        return self.server.scene.add_label(
+            f"{PREFIX}/{name}/{node_id}", text, position=(x - 0.02, y, z + 0.3 * SCALE),
+            anchor="bottom-center", font_screen_scale=0.7,
+        )  # fmt: skip
+
+    def _expected_branch(self) -> set[str]:
+        assert self.doc is not None
+        nodes = self.doc["nodes"]
+        out: set[str] = set()
+        node_id: str = self.doc["root"]
+        while node_id not in out:
+            out.add(node_id)
+            kids = nodes[node_id]["children"]
+            if not kids:
+                break
+            expected = nodes[node_id].get("expected")
+            node_id = next((k["node"] for k in kids if k["outcome"] == expected), kids[0]["node"])
+        return out
 
     def _draw_edges(self, labelled: bool) -> None:
         assert self.current is not None
@@ -182,6 +200,7 @@ class TreeView:
     def _highlight_node(self, node_id: str) -> None:
         if self.current is None or node_id not in self.current.positions:
             return
+        self._label_selection(node_id)
         x, y, z = self.world(node_id)
         if self._highlight is None:
             self._highlight = self.server.scene.add_box(
@@ -190,6 +209,20 @@ class TreeView:
             )  # fmt: skip
         else:
             self._highlight.position = (x + 0.03, y, z)
+
+    def _label_selection(self, node_id: str) -> None:
+        """In a crowded tree, name the selected node and its children."""
+        for handle in self._near_selection:
+            handle.remove()
+        self._near_selection = []
+        if self.labelled_all or self.doc is None or self.current is None:
+            return
+        nodes = self.doc["nodes"]
+        around = [node_id] + [k["node"] for k in nodes[node_id]["children"]]
+        for n in around:
+            if n in self.current.positions:
+                text = short(nodes[n]["action"], nodes[n]["kind"])
+                self._near_selection.append(self._label(n, text, "near"))
 
     def _clicked(self, node_id: str) -> Callable[[Any], None]:
         def handler(_: Any) -> None:
