@@ -251,7 +251,10 @@ def _export(args: argparse.Namespace) -> int:
         doc = store.export(session_id)
     text = json.dumps(doc, indent=1) + "\n"
     if args.output:
-        Path(args.output).write_text(text, encoding="utf-8")
+        try:
+            Path(args.output).write_text(text, encoding="utf-8")
+        except OSError as err:
+            raise BadInput(f"{args.output}: cannot write: {err.strerror or err}") from err
     else:
         sys.stdout.write(text)
     return 0

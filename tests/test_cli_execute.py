@@ -198,7 +198,11 @@ def test_bad_input_is_one_line_and_exit_2(
         ("sessions", "show", "77"),
         ("sessions", "show", "abc"),
         ("sessions", "export", "77"),
+        ("sessions", "export", "1", "-o", str(tmp_path / "no-such-dir" / "out.json")),
     ]
+    # Session 1 exists, so exporting it fails only on the output path.
+    done = tandem("execute", str(plan_file), "--responses", "random", "--seed", "0", env=env)
+    assert session_id(done.stdout) == 1
     not_a_plan = tmp_path / "not-a-plan.json"
     not_a_plan.write_text("[1, 2]")
     cases.append(("execute", str(not_a_plan)))

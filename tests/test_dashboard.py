@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 pytest.importorskip("playwright.sync_api")
-from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
+from playwright.sync_api import Browser, Page, expect, sync_playwright  # noqa: E402
 
 from app.dashboard.server import Dashboard  # noqa: E402
 
@@ -65,6 +65,14 @@ def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
     page.close()
 
 
+def plan_shown(dashboard: Dashboard) -> Callable[[], bool]:
+    def shown() -> bool:
+        doc = dashboard.doc
+        return doc is not None and "stats" in doc and dashboard.selected == doc["root"]
+
+    return shown
+
+
 def shot(page: Page, name: str) -> None:
     ARTIFACTS.mkdir(exist_ok=True)
     page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
@@ -89,6 +97,8 @@ def test_page_shows_bench_robot_and_human(page: Page, dashboard: Dashboard) -> N
 def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Dashboard) -> None:
     page.get_by_role("button", name="Plan", exact=True).click()
     wait_for(lambda: dashboard.job is not None and dashboard.job.status.state == "done", 120)
+    # The job reports "done" just before the page shows the plan and selects its root.
+    wait_for(plan_shown(dashboard))
     assert dashboard.tree.current is not None and len(dashboard.tree.current.positions) >= 10
     assert dashboard.doc is not None and dashboard.selected == dashboard.doc["root"]
     page.get_by_text("statistic").wait_for()
@@ -138,12 +148,15 @@ def test_malformed_scenario_shows_an_error_and_the_page_keeps_working(
 def test_click_through_an_execution_then_review_it(page: Page, dashboard: Dashboard) -> None:
     from app.store import is_plan_path
 
-    if dashboard.doc is None or "stats" not in dashboard.doc:
+    if not plan_shown(dashboard)():
         page.get_by_role("button", name="Plan", exact=True).click()
-        wait_for(lambda: dashboard.job is not None and dashboard.job.status.state == "done", 120)
+        wait_for(plan_shown(dashboard), 120)
     speed = dashboard.execution.speed
     speed.value = 0.0  # no pauses between steps: the test clicks as fast as it can
-    page.get_by_role("button", name="Execute plan", exact=True).click()
+    execute = page.get_by_role("button", name="Execute plan", exact=True)
+    wait_for(lambda: not dashboard.execution.start_button.disabled)
+    expect(execute).to_be_enabled()  # the page, too, knows the plan is ready
+    execute.click()
     wait_for(lambda: dashboard.execution.executor is not None)
     executor = dashboard.execution.executor
     assert executor is not None
@@ -179,12 +192,13 @@ def test_click_through_an_execution_then_review_it(page: Page, dashboard: Dashbo
     page.get_by_role("button", name="Refresh list", exact=True).click()
     label = next(k for k, v in dashboard.review._ids.items() if v == session_id)
     page.get_by_role("button", name="Open session", exact=True).click()
-    wait_for(lambda: dashboard.review.session is not None)
+    wait_for(lambda: dashboard.review.opened == session_id)
     assert dashboard.review.pick.value == label
     replayed = []
     for k in range(len(dashboard.review.events)):
-        dashboard.review.timeline.value = k
-        wait_for(lambda k=k: dashboard.selected == dashboard.review.events[k].node)
+        # What moving the timeline to step k does (setting the slider from here
+        # races with the page echoing earlier values back).
+        dashboard.review.show_step(k)
         replayed.append((dashboard.selected, dashboard.review.events[k].outcome))
     assert replayed == path
     shot(page, "review")
