@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -50,18 +51,11 @@ class Plan:
 
     def first_branch(self) -> list[tuple[str, str | None]]:
         """The branch the planner expects (its hoped-for outcomes): (action, outcome)."""
-        out: list[tuple[str, str | None]] = []
-        node_id = self.root
-        while True:
-            node = self.nodes[node_id]
-            if node["kind"] == "goal":
-                return out
-            expected = node.get("expected")
-            child = next(
-                (c for c in node["children"] if c["outcome"] == expected), node["children"][0]
-            )
-            out.append((node["action"], child["outcome"]))
-            node_id = child["node"]
+        return [
+            (self.nodes[node_id]["action"], outcome)
+            for node_id, outcome in expected_path(self.doc)
+            if self.nodes[node_id]["kind"] != "goal"
+        ]
 
     def dot(self) -> str:
         lines = [
@@ -89,7 +83,7 @@ def build_plan(
     plan_s: float,
     checks_s: float,
 ) -> Plan:
-    ids = _number(nodes, root)
+    ids = number_states(nodes, root)
     fact_set = frozenset(facts)
     verbosity = next((f[len("verbosity(") : -1] for f in facts if f.startswith("verbosity(")), "")
     out: dict[str, dict[str, Any]] = {}
@@ -118,8 +112,29 @@ def build_plan(
     return Plan(doc)
 
 
-def _number(nodes: dict[State, DagNode], root: State) -> dict[State, str]:
-    """Node ids in breadth-first order, so that files are stable and readable."""
+def expected_path(doc: dict[str, Any]) -> list[tuple[str, str | None]]:
+    """(node id, outcome taken) from the root along the expected outcomes to a leaf;
+    the leaf's outcome is None. Stops at a node seen before (a partial plan)."""
+    nodes = doc["nodes"]
+    out: list[tuple[str, str | None]] = []
+    seen: set[str] = set()
+    node_id: str = doc["root"]
+    while node_id not in seen:
+        seen.add(node_id)
+        kids = nodes[node_id]["children"]
+        if not kids:
+            out.append((node_id, None))
+            break
+        expected = nodes[node_id].get("expected")
+        child = next((c for c in kids if c["outcome"] == expected), kids[0])
+        out.append((node_id, child["outcome"]))
+        node_id = child["node"]
+    return out
+
+
+def number_states(nodes: Mapping[State, DagNode], root: State) -> dict[State, str]:
+    """Node ids in breadth-first order, so that files are stable and readable. States
+    not in `nodes` (still open, while planning goes on) get ids but no children."""
     ids: dict[State, str] = {}
     queue = deque([root])
     while queue:
@@ -127,7 +142,8 @@ def _number(nodes: dict[State, DagNode], root: State) -> dict[State, str]:
         if state in ids:
             continue
         ids[state] = f"n{len(ids)}"
-        queue.extend(succ for _, succ in nodes[state].children)
+        if state in nodes:
+            queue.extend(succ for _, succ in nodes[state].children)
     return ids
 
 

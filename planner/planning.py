@@ -64,13 +64,11 @@ def feasible_pairs(
 ) -> tuple[frozenset[tuple[str, str]], float]:
     """(arm, part) pairs the robot can reach, and the seconds spent checking them.
 
-    Declared scenarios answer from their table; geometric ones ask `checks` once per
-    pair, in the parent process, so workers share the answers.
+    Declared scenarios (no `checks`, see `bench_checks`) answer from their table;
+    geometric ones ask `checks` once per pair, in the parent process, so workers share
+    the answers.
     """
     if checks is None:
-        if scenario.feasibility.source == "geometry":
-            with bench_checks(scenario, ":memory:") as own:
-                return feasible_pairs(scenario, own)
         return frozenset(scenario.reachable_pairs()), 0.0
     t0 = time.perf_counter()
     table = checks.table()

@@ -5,13 +5,16 @@ Screenshots of the key views go to tests/artifacts/ for people to look at.
 
 from __future__ import annotations
 
+import io
 import shutil
 import socket
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
+from PIL import Image
 
 pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, expect, sync_playwright  # noqa: E402
@@ -73,6 +76,16 @@ def plan_shown(dashboard: Dashboard) -> Callable[[], bool]:
     return shown
 
 
+def colour_counts(page: Page) -> tuple[int, int]:
+    """Strongly red and strongly blue pixels of the 3D view."""
+    image = Image.open(io.BytesIO(page.screenshot())).convert("RGB")
+    pixels = np.asarray(image, dtype=int)[:, :950]  # the panel starts ~1000 px in
+    r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+    return int(((r > 150) & (g < 70) & (b < 70)).sum()), int(
+        ((b > 150) & (r < 60) & (g < 60)).sum()
+    )
+
+
 def shot(page: Page, name: str) -> None:
     ARTIFACTS.mkdir(exist_ok=True)
     page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
@@ -92,6 +105,10 @@ def test_page_shows_bench_robot_and_human(page: Page, dashboard: Dashboard) -> N
     page.locator("canvas").first.wait_for()
     time.sleep(3.0)  # software WebGL: let the meshes arrive and render
     shot(page, "bench")
+    # The page really draws them: Baxter's red covers and the human's blue body
+    # fill thousands of pixels of the 3D view (left of the panel).
+    red, blue = colour_counts(page)
+    assert red > 1000 and blue > 1000, (red, blue)
 
 
 def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Dashboard) -> None:

@@ -185,15 +185,20 @@ def test_cli_prints_every_pair(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_planning_takes_feasibility_from_geometry_when_asked() -> None:
-    from planner.planning import feasible_pairs
+    from planner.planning import bench_checks, feasible_pairs
 
-    pairs, seconds = feasible_pairs(load_scenario(DEFAULT))
+    with bench_checks(load_scenario(DEFAULT), ":memory:") as checks:
+        assert checks is not None  # the default scenario's source is geometry
+        pairs, seconds = feasible_pairs(load_scenario(DEFAULT), checks)
     assert {("left", "leg1"), ("right", "leg1")} <= pairs
     assert not {("left", "leg2"), ("right", "leg2")} & pairs
     # Each arm reaches the top at the connection point on its side.
     assert {("left", "top"), ("right", "top")} <= pairs
     assert seconds > 0
-    declared, zero = feasible_pairs(load_scenario(DEFAULT.with_name("declared.toml")))
+    declared_scenario = load_scenario(DEFAULT.with_name("declared.toml"))
+    with bench_checks(declared_scenario, ":memory:") as none:
+        assert none is None  # a declared table needs no robot model
+    declared, zero = feasible_pairs(declared_scenario)
     assert ("left", "foot2") in declared and zero == 0.0
 
 

@@ -102,7 +102,7 @@ class ExecutionPanel:
         self.dashboard.select(event.node, show_world=event.motion is None)
         if event.motion:
             self._play(event.motion, float(self.speed.value))
-            self.dashboard.select(event.node)
+            self.dashboard.show_world(event.node)
         words = event.text or event.action or ""
         self._log.append(f"`{event.node}` {event.action or 'goal'}: {words}")
         self.log.content = "\n\n".join(self._log[-12:])

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
 from planner.hcp import ConditionalPlanner, DeadEnd, Progress
-from planner.plan import Plan
+from planner.plan import Plan, number_states
 from planner.planning import PlanningCancelled, plan_scenario
 from planner.scenario_model import Scenario
 
@@ -109,34 +108,28 @@ def partial_doc(planner: ConditionalPlanner) -> dict[str, Any] | None:
     for _ in range(3):
         try:
             nodes = dict(planner.nodes)  # the planning thread may grow it meanwhile
-            snapshot = {
-                state: (n.action, n.kind, n.goal, list(n.children), n.expected)
-                for state, n in nodes.items()
-            }
             break
         except RuntimeError:
             continue
     else:
         return None
-    if planner.root not in snapshot:
+    if planner.root not in nodes:
         return None
-    ids: dict[frozenset[str], str] = {}
-    queue = deque([planner.root])
-    while queue:
-        state = queue.popleft()
-        if state in ids:
-            continue
-        ids[state] = f"n{len(ids)}"
-        if state in snapshot:
-            queue.extend(succ for _, succ in snapshot[state][3])
+    ids = number_states(nodes, planner.root)
     out: dict[str, dict[str, Any]] = {}
     for state, node_id in ids.items():
-        action, kind, goal, children, expected = snapshot.get(state, (None, None, False, [], None))
+        node = nodes.get(state)
+        children = list(node.children) if node is not None else []
         out[node_id] = {
-            "kind": "goal" if goal else kind or "open",
-            "action": action,
+            "kind": "open" if node is None else "goal" if node.goal else node.kind or "open",
+            "action": node.action if node is not None else None,
             "state": sorted(state),
-            "children": [{"outcome": label, "node": ids[succ]} for label, succ in children],
-            "expected": expected,
+            "children": [
+                # A child added after the numbering waits for the next snapshot.
+                {"outcome": label, "node": ids[succ]}
+                for label, succ in children
+                if succ in ids
+            ],
+            "expected": node.expected if node is not None else None,
         }
-    return {"root": "n0", "nodes": out}
+    return {"root": ids[planner.root], "nodes": out}

@@ -18,7 +18,6 @@ if TYPE_CHECKING:
 ANY = "any"
 RESULTS = (ANY, "goal", "aborted", "interrupted", "dead-end")
 NONE = "(no sessions)"
-ECHO_S = 1.0  # slider updates from the page this soon after a server-side move are echoes
 
 
 def session_label(s: SessionRecord) -> str:
@@ -32,7 +31,6 @@ class ReviewPanel:
         self.events: list[Any] = []
         self.session: SessionRecord | None = None
         self._ids: dict[str, int] = {}
-        self._server_set = 0.0
         self.opened: int | None = None  # set once a session is fully on screen
         gui = dashboard.server.gui
         with gui.add_folder("Review sessions", expand_by_default=False):
@@ -86,20 +84,14 @@ class ReviewPanel:
         last = max(0, len(self.events) - 1)
         self.timeline.max = max(1, last)
         self.timeline.disabled = not self.events
-        self._set_timeline(0)
+        self.timeline.value = 0
         self.show_step(0)
         self.opened = session_id
 
-    def _set_timeline(self, k: int) -> None:
-        self._server_set = time.monotonic()
-        self.timeline.value = k
-
     def _timeline_moved(self, event: Any) -> None:
-        # Only a person moving the slider; the page echoes values set from here
-        # back a little later, and those would jump the replay backwards.
-        if event.client is None or time.monotonic() - self._server_set < ECHO_S:
-            return
-        self.show_step(int(self.timeline.value))
+        # Moves made here (open, replay) show their step themselves.
+        if event.client is not None:
+            self.show_step(int(self.timeline.value))
 
     def show_step(self, k: int) -> None:
         if not self.events or self.session is None:
@@ -123,7 +115,7 @@ class ReviewPanel:
     def _replay(self) -> None:
         def run() -> None:
             for k in range(len(self.events)):
-                self._set_timeline(k)
+                self.timeline.value = k
                 self.show_step(k)
                 time.sleep(0.3)
 

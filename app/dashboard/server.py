@@ -262,12 +262,21 @@ class Dashboard:
             self.details.content = details_markdown(node_id, node)
             self.tree.highlight(node_id)
             if show_world:
-                world = world_at(doc["nodes"], lineage, self.bench.boxes)
-                self.bench.show(world)
-                self.current_arms = world.arms
+                self._show_world(doc, lineage)
             self.toggle_button.disabled = not node["children"]
             self.parent_button.disabled = len(lineage) < 2
             self._child_buttons(node)
+
+    def show_world(self, node_id: str) -> None:
+        """The bench as `node_id` leaves it (after an arm's motion has been played)."""
+        with self._lock:
+            if self.doc is not None and self.tree.tree is not None:
+                self._show_world(self.doc, self.tree.tree.lineage(node_id))
+
+    def _show_world(self, doc: dict[str, Any], lineage: list[str]) -> None:
+        world = world_at(doc["nodes"], lineage, self.bench.boxes)
+        self.bench.show(world)
+        self.current_arms = world.arms
 
     def _child_buttons(self, node: dict[str, Any]) -> None:
         if self.children_group is not None:

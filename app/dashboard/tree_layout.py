@@ -12,6 +12,8 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
+from planner.plan import expected_path
+
 COLUMN = 1.0  # layout units between neighbouring leaves
 ROW = 1.6  # between depths
 
@@ -86,20 +88,13 @@ class SpanningTree:
     def default_collapsed(self, doc: dict[str, Any], budget: int = 60) -> set[str]:
         """Collapse so about `budget` nodes show: the expected branch stays open, then
         the shallowest nodes first."""
-        nodes = doc["nodes"]
         keep: set[str] = set()
-        node_id = self.root
-        while True:
+        for on_branch, _ in expected_path(doc):
             # The expected child may hang under another parent in the spanning tree.
-            keep.update(self.lineage(node_id))
-            kids = nodes[node_id]["children"]
-            if not kids:
-                break
-            expected = nodes[node_id].get("expected")
-            node_id = next((k["node"] for k in kids if k["outcome"] == expected), kids[0]["node"])
+            keep.update(self.lineage(on_branch))
         shown = set(keep)
-        for kid_of_branch in list(keep):
-            shown.update(k for _, k in self.children[kid_of_branch])
+        for node_id in keep:
+            shown.update(k for _, k in self.children[node_id])
         order = sorted(self.depth, key=lambda n: (self.depth[n], n))
         for n in order:
             if len(shown) >= budget:

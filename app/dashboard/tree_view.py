@@ -16,7 +16,7 @@ import numpy as np
 import viser
 
 from app.dashboard.tree_layout import SpanningTree, TreeLayout, layout
-from planner.plan import KIND_COLOURS
+from planner.plan import KIND_COLOURS, expected_path
 
 WALL_X = 8.0
 SCALE = 0.25  # metres per layout unit
@@ -116,7 +116,7 @@ class TreeView:
         scene = self.server.scene
         size = (0.02, 0.7 * SCALE, 0.45 * SCALE)
         labelled = self.labelled_all = len(self.current.positions) <= LABEL_LIMIT
-        branch = self._expected_branch()
+        branch = {node_id for node_id, _ in expected_path(self.doc)}
         for node_id in self.current.positions:
             node = nodes[node_id]
             kind = node["kind"]
@@ -142,20 +142,6 @@ class TreeView:
             f"{PREFIX}/{name}/{node_id}", text, position=(x - 0.02, y, z + 0.3 * SCALE),
             anchor="bottom-center", font_screen_scale=0.7,
         )  # fmt: skip
-
-    def _expected_branch(self) -> set[str]:
-        assert self.doc is not None
-        nodes = self.doc["nodes"]
-        out: set[str] = set()
-        node_id: str = self.doc["root"]
-        while node_id not in out:
-            out.add(node_id)
-            kids = nodes[node_id]["children"]
-            if not kids:
-                break
-            expected = nodes[node_id].get("expected")
-            node_id = next((k["node"] for k in kids if k["outcome"] == expected), kids[0]["node"])
-        return out
 
     def _draw_edges(self, labelled: bool) -> None:
         assert self.current is not None

@@ -11,9 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from planner.feasibility.motions import Hands
 from planner.feasibility.robot import HOME
 from planner.feasibility.scene import BENCH_TOP_Z, PartBox
-from planner.terms import constants, parse_term
 
 LIFT = 0.12  # metres above the bench for a part held by an arm
 HUMAN_HANDS_X = 1.55  # where the human holds parts, past the far edge of the bench
@@ -36,26 +36,10 @@ class WorldView:
     arms: dict[str, list[float]]  # arm -> 7 joint values
 
 
-def parse_state(state: list[str]) -> tuple[dict[str, str], dict[str, tuple[str, str]], set[str]]:
-    """(holding arm -> part, attached part -> (onto, connection), parts the human holds)."""
-    holding: dict[str, str] = {}
-    attached: dict[str, tuple[str, str]] = {}
-    human: set[str] = set()
-    for fluent in state:
-        term = parse_term(fluent)
-        args = constants(term) or ()
-        if term.name == "holding" and len(args) == 2:
-            holding[args[0]] = args[1]
-        elif term.name == "attached" and len(args) == 3:
-            attached[args[0]] = (args[1], args[2])
-        elif term.name == "humanHoldingPart" and len(args) == 1:
-            human.add(args[0])
-    return holding, attached, human
-
-
 def place_parts(boxes: dict[str, PartBox], state: list[str]) -> dict[str, Placement]:
-    holding, attached, human = parse_state(state)
-    held_by = {part: arm for arm, part in holding.items()}
+    hands = Hands.of(state)
+    attached, human = hands.attached, hands.human
+    held_by = {part: arm for arm, part in hands.holding.items()}
     out: dict[str, Placement] = {}
 
     def place(pid: str) -> Placement:

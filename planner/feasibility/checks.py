@@ -81,10 +81,7 @@ class BenchChecks:
         """Where `arm` stands when working on `part` (None: home)."""
         if part is None:
             return list(HOME[arm])
-        path = self.reach(arm, part).path
-        if path is None:
-            raise ValueError(f"{arm} cannot reach {part}")
-        return path[-1]
+        return self._reach_path(arm, part)[-1]
 
     def move(self, arm: str, start: str | None, goal: str | None) -> list[Config]:
         """A collision-free path of `arm` from its work point on `start` to the one on
@@ -93,6 +90,7 @@ class BenchChecks:
         if start == goal:
             return [self.at(arm, start)]
         if start is None:
+            assert goal is not None  # both None returned above
             return self._reach_path(arm, goal)
         if goal is None:
             return self._reach_path(arm, start)[::-1]
@@ -107,8 +105,8 @@ class BenchChecks:
         self.cache.put(key, path)
         return path
 
-    def _reach_path(self, arm: str, part: str | None) -> list[Config]:
-        path = self.reach(arm, part).path if part is not None else None
+    def _reach_path(self, arm: str, part: str) -> list[Config]:
+        path = self.reach(arm, part).path
         if path is None:
             raise ValueError(f"{arm} cannot reach {part}")
         return path

@@ -12,13 +12,33 @@ at its grasp if the other arm brought the assembly to it. So
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
+from planner.domain_sim import parse_state
 from planner.feasibility.checks import BenchChecks
 from planner.feasibility.robot import JOINT_SUFFIXES
 from planner.terms import constants, parse_term
 
 DECIMALS = 4  # 0.1 mrad: far below what the arm can resolve; keeps plan files small
+
+
+@dataclass(frozen=True)
+class Hands:
+    """Who holds what and what is attached where, read from a node's state."""
+
+    holding: dict[str, str]  # arm -> part
+    attached: dict[str, tuple[str, str]]  # part -> (onto, connection)
+    human: frozenset[str]  # parts in the human's hands
+
+    @classmethod
+    def of(cls, state: list[str]) -> Hands:
+        fluents, _ = parse_state(state)
+        return cls(
+            {f[1]: f[2] for f in fluents if f[0] == "holding"},
+            {f[1]: (f[2], f[3]) for f in fluents if f[0] == "attached"},
+            frozenset(f[1] for f in fluents if f[0] == "humanHoldingPart"),
+        )
 
 
 def joint_names(arm: str) -> list[str]:
@@ -46,19 +66,11 @@ def _endpoints(
     """(arm, where it starts, where it ends) as part ids whose work point it is at."""
     term = parse_term(action)
     args = constants(term) or ()
-    holding: dict[str, str] = {}
-    attached: dict[str, str] = {}
-    for fluent in state:
-        f = parse_term(fluent)
-        a = constants(f) or ()
-        if f.name == "holding":
-            holding[a[0]] = a[1]
-        elif f.name == "attached":
-            attached[a[0]] = a[1]
+    hands = Hands.of(state)
 
     def root(part: str) -> str:
-        while part in attached:
-            part = attached[part]
+        while part in hands.attached:
+            part = hands.attached[part][0]
         return part
 
     def work_point(arm: str, held: str, onto: str) -> str:
@@ -70,9 +82,9 @@ def _endpoints(
     if term.name == "hold":
         return arm, None, args[1]
     if term.name == "attach":
-        held = holding[arm]
+        held = hands.holding[arm]
         return arm, held, work_point(arm, held, args[1])
     if term.name == "unhold":
-        held = holding[arm]
+        held = hands.holding[arm]
         return arm, work_point(arm, held, held), None
     raise ValueError(f"no motion for actuation {action!r}")
