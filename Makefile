@@ -3,13 +3,16 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test bench lint browser
+.PHONY: run test bench lint system
 
-# The browser tests drive Debian's chromium; install it once if it is missing.
-browser:
-	test -x /usr/bin/chromium || { \
+# Debian packages: chromium for the browser tests, espeak-ng as the offline
+# voice, PortAudio for the microphone and speakers. Installed once if missing.
+SYSTEM_PACKAGES := chromium espeak-ng libportaudio2
+system:
+	test -x /usr/bin/chromium && test -x /usr/bin/espeak-ng && \
+		test -n "$$(ldconfig -p | grep libportaudio.so.2)" || { \
 		SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
-		$$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq chromium; }
+		$$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $(SYSTEM_PACKAGES); }
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || python3 -m venv $(VENV)
@@ -19,10 +22,10 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(BIN)/tandem dashboard --scenario static/scenarios/default.toml
 
-test: $(STAMP) browser
+test: $(STAMP) system
 	$(BIN)/pytest -q
 
-bench: $(STAMP) browser
+bench: $(STAMP) system
 	$(BIN)/tandem bench
 	$(BIN)/python -m app.dashboard.bench
 
