@@ -1,0 +1,86 @@
+"""The languages the robot speaks and understands, keyed by code ("en-us", "ko").
+
+A `Language` carries everything the voice side needs for one language: the
+espeak-ng voice and gTTS language for speaking, and for a yes/no question the
+answer phrases and the distractor phrases. Distractors are words of the
+recognition model's vocabulary that sound unlike any answer: put in the closed
+grammar beside the answers, they absorb speech that is not an answer (the
+Korean model has no `[unk]` word, so without them every sound is forced into
+"yes" or "no"). Each answer or distractor is a phrase of one or more words the
+model knows; the recogniser ignores words missing from the vocabulary.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+class UnknownLanguage(ValueError):
+    """A language code that is not in the table."""
+
+
+@dataclass(frozen=True)
+class Language:
+    code: str
+    name: str
+    espeak_voice: str
+    gtts_lang: str
+    yes_words: tuple[str, ...]
+    no_words: tuple[str, ...]
+    distractors: tuple[str, ...]
+    # espeak-ng voice variants ("+m3", "+f2"...) a simulated speaker may use.
+    espeak_variants: tuple[str, ...] = ("",)
+
+    def meaning_of(self, phrase: str) -> str | None:
+        """"yes", "no" or None for a phrase of this language's answers."""
+        if phrase in self.yes_words:
+            return "yes"
+        if phrase in self.no_words:
+            return "no"
+        return None
+
+
+_VARIANTS = ("", "+m1", "+m3", "+m7", "+f1", "+f2", "+f4", "+croak", "+klatt2")
+
+ENGLISH = Language(
+    code="en-us",
+    name="English (America)",
+    espeak_voice="en-us",
+    gtts_lang="en",
+    yes_words=("yes", "yeah", "yep", "yes please", "sure", "okay", "ok", "of course", "go ahead"),
+    no_words=("no", "nope", "not now", "no thanks", "no thank you", "don't", "not yet"),
+    distractors=(
+        "table", "leg", "top", "robot", "hello", "what", "where", "wait", "maybe",
+        "left", "right", "screw", "hold", "the", "a", "it", "is", "that", "this",
+    ),
+    espeak_variants=_VARIANTS,
+)
+
+KOREAN = Language(
+    code="ko",
+    name="Korean",
+    espeak_voice="ko",
+    gtts_lang="ko",
+    yes_words=("네", "예", "응", "그래요", "좋아요", "그래", "좋아"),
+    no_words=("아니요", "아니", "아니오", "싫어요", "안 돼요", "아냐"),
+    # Short syllables spread over the consonants plus common content words, none
+    # of them near 네/예/응/아니: together they cover most other speech.
+    distractors=(
+        "가", "다", "라", "마", "바", "사", "자", "하", "카", "타", "파", "차",
+        "고", "도", "로", "모", "보", "소", "조", "호", "구", "두", "부", "수",
+        "주", "후", "기", "디", "리", "미", "비", "시", "지", "히", "그", "드",
+        "스", "트", "테이블", "다리", "하나", "둘", "셋", "로봇", "사람", "오늘",
+    ),
+    espeak_variants=_VARIANTS,
+)
+
+LANGUAGES: dict[str, Language] = {lang.code: lang for lang in (ENGLISH, KOREAN)}
+
+
+def language(code: str) -> Language:
+    """The language for a code; `UnknownLanguage` names the known ones."""
+    try:
+        return LANGUAGES[code]
+    except KeyError:
+        known = ", ".join(sorted(LANGUAGES))
+        raise UnknownLanguage(f"unknown language {code!r} (known: {known})") from None

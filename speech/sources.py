@@ -1,0 +1,167 @@
+"""Where answers are heard from: one `AudioSource` protocol, three sources.
+
+- `MicrophoneSource`: the default input device (sounddevice), cut by a simple
+  end-of-speech detector (energy above the noise floor, then a pause).
+- `WavFolderSource`: a folder of WAV files, one per question, in name order.
+- `SimulatedVoice`: the simulated human says the answer it chose through
+  espeak-ng (voice variant, speed and pitch drawn from a seeded generator,
+  optional white noise), and `listen()` hands that recording over, so the
+  whole dialogue runs through the real recogniser without hardware.
+
+Each keeps `level`, the RMS (0..1) of the last audio it produced, for the
+dashboard's input-level indicator.
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from speech.audio import RATE, Recording, as_int16, level_db, read_wav, resample, rms
+from speech.devices import require_device
+from speech.languages import Language, language
+from speech.synthesis import espeak_samples
+
+
+class AudioSource(Protocol):
+    """Anything that can hand over what the human said next."""
+
+    @property
+    def level(self) -> float: ...
+
+    def listen(self, timeout_s: float) -> Recording | None:
+        """The next utterance, or None when nothing was said within `timeout_s`."""
+        ...
+
+
+class WavFolderSource:
+    """The WAV files of a folder, one per `listen()`, in name order."""
+
+    def __init__(self, folder: Path | str) -> None:
+        self.folder = Path(folder)
+        if not self.folder.is_dir():
+            raise FileNotFoundError(f"no such folder of answers: {self.folder}")
+        self._files = sorted(self.folder.glob("*.wav"))
+        self._next = 0
+        self.level = 0.0
+
+    @property
+    def remaining(self) -> int:
+        return len(self._files) - self._next
+
+    def listen(self, timeout_s: float) -> Recording | None:
+        if self._next >= len(self._files):
+            return None
+        recording = read_wav(self._files[self._next])
+        self._next += 1
+        self.level = rms(recording.samples)
+        return recording
+
+
+class SimulatedVoice:
+    """A simulated human who speaks its answers with espeak-ng.
+
+    Seeded, each `say` draws a voice variant, a speed and a pitch, so
+    answers differ the way speakers do; `noise_snr_db` adds white noise at
+    that signal-to-noise ratio (None: clean).
+    """
+
+    def __init__(
+        self,
+        language_code: str | Language = "ko",
+        seed: int | None = None,
+        noise_snr_db: float | None = None,
+        pause_s: float = 0.3,
+    ) -> None:
+        self.language = (
+            language_code if isinstance(language_code, Language) else language(language_code)
+        )
+        self._random = random.Random(seed) if seed is not None else None
+        self._noise = np.random.default_rng(seed)
+        self.noise_snr_db = noise_snr_db
+        self.pause_s = pause_s
+        self._pending: Recording | None = None
+        self.level = 0.0
+
+    def render(self, text: str) -> Recording:
+        """`text` spoken (with the pauses and noise), without queueing it."""
+        voice, speed, pitch = self.language.espeak_voice, 175, 50
+        if self._random is not None:
+            voice += self._random.choice(self.language.espeak_variants)
+            speed = self._random.randint(130, 220)
+            pitch = self._random.randint(25, 80)
+        speech = espeak_samples(text, voice, speed, pitch).astype(np.float64)
+        pause = np.zeros(int(self.pause_s * RATE))
+        signal = np.concatenate([pause, speech, pause])
+        if self.noise_snr_db is not None:
+            power = float(np.mean(speech * speech)) if speech.size else 0.0
+            sigma = np.sqrt(power / 10 ** (self.noise_snr_db / 10))
+            signal = signal + self._noise.normal(0.0, sigma, signal.size)
+        samples = np.clip(np.round(signal), -32768, 32767).astype(np.int16)
+        origin = f"simulated:{voice}:s{speed}:p{pitch}:{text}"
+        return Recording(samples=samples, rate=RATE, origin=origin)
+
+    def say(self, answer_text: str) -> Recording:
+        """Speak `answer_text`; the next `listen()` returns it."""
+        self._pending = self.render(answer_text)
+        return self._pending
+
+    def listen(self, timeout_s: float) -> Recording | None:
+        recording, self._pending = self._pending, None
+        if recording is not None:
+            self.level = rms(recording.samples)
+        return recording
+
+
+class MicrophoneSource:
+    """The default microphone, one utterance per `listen()`.
+
+    End of speech: the first 0.3 s set the noise floor; speech starts when a
+    30 ms block is `start_db` above it, and ends after `pause_s` of blocks
+    back under it. `NoAudioDevice` (one line) when there is no microphone.
+    """
+
+    BLOCK_S = 0.03
+
+    def __init__(self, start_db: float = 12.0, pause_s: float = 0.7, max_s: float = 8.0) -> None:
+        self._sd = require_device("input")
+        self.start_db = start_db
+        self.pause_s = pause_s
+        self.max_s = max_s
+        self.level = 0.0
+
+    def listen(self, timeout_s: float) -> Recording | None:
+        device_rate = int(self._sd.query_devices(kind="input")["default_samplerate"])
+        block = int(self.BLOCK_S * device_rate)
+        blocks: list[np.ndarray] = []
+        floor: float | None = None
+        started_at: int | None = None
+        quiet = 0
+        deadline = time.monotonic() + timeout_s
+        with self._sd.InputStream(samplerate=device_rate, channels=1, dtype="int16") as stream:
+            while True:
+                data, _ = stream.read(block)
+                chunk = as_int16(data)
+                self.level = rms(chunk)
+                blocks.append(chunk)
+                loud = level_db(chunk)
+                if floor is None:
+                    if len(blocks) * self.BLOCK_S >= 0.3:
+                        floor = float(np.median([level_db(b) for b in blocks]))
+                    continue
+                if started_at is None:
+                    if loud > floor + self.start_db:
+                        started_at = max(0, len(blocks) - 10)  # keep 0.3 s before onset
+                    elif time.monotonic() > deadline:
+                        return None
+                    continue
+                quiet = quiet + 1 if loud < floor + self.start_db / 2 else 0
+                spoken = (len(blocks) - started_at) * self.BLOCK_S
+                if quiet * self.BLOCK_S >= self.pause_s or spoken >= self.max_s:
+                    break
+        samples = resample(np.concatenate(blocks[started_at:]), device_rate, RATE)
+        return Recording(samples=samples, rate=RATE, origin="microphone")
