@@ -1,0 +1,329 @@
+"""A simulated camera over the bench: pybullet renders boxes with QR codes on their
+top faces and reference codes on the bench, from a settable camera pose.
+
+Codes are one-quad OBJ meshes with UVs 0..1 (a texture on a box face comes out
+cropped); the quad includes the quiet zone, so it may overhang a narrow part like a
+label. The camera is a `FrameSource`; `move` and `cover` change the world between
+frames, and `Degradation` adds pose jitter, blur, noise and lighting changes.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import tempfile
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+import pybullet as pb
+
+from perception.codes_image import QUIET_ZONE_MODULES, modules_across, qr_image
+from perception.frames import Frame, Image
+from perception.intrinsics import CameraIntrinsics
+from perception.markers import DEFAULT_MARKER_SIZE_M, ReferenceMarker, encode_reference
+from perception.pose import CameraPose
+
+Vec3 = tuple[float, float, float]
+_QUAD_OBJ = """v -0.5 -0.5 0
+v 0.5 -0.5 0
+v 0.5 0.5 0
+v -0.5 0.5 0
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+vn 0 0 1
+f 1/1/1 2/2/1 3/3/1
+f 1/1/1 3/3/1 4/4/1
+"""
+_LIFT_CODE = 0.0008  # the code floats this far over its face, against z-fighting
+
+
+@dataclass(frozen=True)
+class SimPart:
+    """A part as a box: centre position, yaw about z, size (x, y, z), and the payload
+    of the code on its top face (None: no code)."""
+
+    part_id: str
+    size: Vec3
+    position: Vec3
+    payload: str | None = None
+    yaw: float = 0.0
+    colour: tuple[float, float, float] = (0.85, 0.8, 0.7)
+    code_offset: tuple[float, float] = (0.0, 0.0)  # on the top face, in the part's axes
+
+
+@dataclass(frozen=True)
+class SimScene:
+    parts: tuple[SimPart, ...]
+    references: tuple[ReferenceMarker, ...]
+    bench_top_z: float = -0.05
+    bench_x: tuple[float, float] = (0.30, 1.40)
+    bench_y: tuple[float, float] = (-0.70, 0.70)
+    marker_size_m: float = DEFAULT_MARKER_SIZE_M
+    light_direction: Vec3 = (0.3, 0.2, 1.0)
+
+
+@dataclass(frozen=True)
+class CameraPlacement:
+    eye: Vec3
+    target: Vec3
+    up: Vec3 = (1.0, 0.0, 0.0)
+
+    def pose(self) -> CameraPose:
+        """The camera (OpenCV axes: x right, y down, z forward) in the bench frame."""
+        eye = np.array(self.eye, dtype=np.float64)
+        forward = np.array(self.target, dtype=np.float64) - eye
+        forward /= np.linalg.norm(forward)
+        right = np.cross(forward, np.array(self.up, dtype=np.float64))
+        right /= np.linalg.norm(right)
+        down = np.cross(forward, right)
+        return CameraPose(np.column_stack([right, down, forward]), eye)
+
+
+@dataclass(frozen=True)
+class Degradation:
+    """Random per-frame disturbances; zeros mean a clean render."""
+
+    jitter_m: float = 0.0  # std of the eye and target positions
+    blur_px: float = 0.0  # up to this Gaussian sigma
+    noise: float = 0.0  # std of additive noise, in 0..255 grey levels
+    gain: tuple[float, float] = (1.0, 1.0)  # brightness factor range
+    light_jitter: float = 0.0  # std of the light direction's components
+    seed: int = 0
+
+
+# Default camera: straight down over the middle of the bench and the human's hands
+# (x 0.30..1.65), 1.45 m above the bench, 60 deg across 1024 px (square image): the
+# whole bench and the hands are in view and a 10 cm code spans ~60 px. Measured in
+# perception.bench: all codes decode at this placement.
+DEFAULT_CAMERA = CameraPlacement(eye=(0.975, 0.0, 1.40), target=(0.975, 0.0, -0.05))
+DEFAULT_SIZE = (1024, 1024)
+DEFAULT_HFOV_DEG = 60.0
+
+
+class SimulatedCamera:
+    """Renders `scene` (a `FrameSource`); world changes apply to the next frame."""
+
+    def __init__(
+        self,
+        scene: SimScene,
+        placement: CameraPlacement = DEFAULT_CAMERA,
+        size: tuple[int, int] = DEFAULT_SIZE,
+        hfov_deg: float = DEFAULT_HFOV_DEG,
+        degradation: Degradation | None = None,
+        fps: float = 30.0,
+    ) -> None:
+        self.scene = scene
+        self.placement = placement
+        self.degradation = degradation or Degradation()
+        self._size = size
+        self._hfov = hfov_deg
+        self._fps = fps
+        self._rng = np.random.default_rng(self.degradation.seed)
+        self._index = 0
+        self._dir = Path(tempfile.mkdtemp(prefix="tandem-sim-"))
+        self._client = pb.connect(pb.DIRECT)
+        self._quad = self._dir / "quad.obj"
+        self._quad.write_text(_QUAD_OBJ)
+        self._bodies: dict[str, tuple[int, int | None]] = {}  # part -> (box, code)
+        self._parts: dict[str, SimPart] = {}
+        self._covers: dict[str, int] = {}
+        self.last_pose: CameraPose = placement.pose()
+        self._build()
+
+    # --- the world ---------------------------------------------------------------
+    def _code_body(self, payload: str, key: str) -> tuple[int, float]:
+        """A textured quad for `payload`; returns the body and its side (with margin)."""
+        modules = modules_across(payload)
+        side = self.scene.marker_size_m * (modules + 2 * QUIET_ZONE_MODULES) / modules
+        png = self._dir / f"{key}.png"
+        qr_image(payload, module_px=8).save(png)
+        shape = pb.createVisualShape(
+            pb.GEOM_MESH, fileName=str(self._quad), meshScale=[side, side, 1.0],
+            physicsClientId=self._client,
+        )
+        body = pb.createMultiBody(baseVisualShapeIndex=shape, physicsClientId=self._client)
+        texture = pb.loadTexture(str(png), physicsClientId=self._client)
+        pb.changeVisualShape(body, -1, textureUniqueId=texture, rgbaColor=[1, 1, 1, 1],
+                             physicsClientId=self._client)
+        return body, side
+
+    def _box(self, size: Vec3, colour: tuple[float, float, float, float]) -> int:
+        shape = pb.createVisualShape(
+            pb.GEOM_BOX, halfExtents=[s / 2 for s in size], rgbaColor=list(colour),
+            physicsClientId=self._client,
+        )
+        return int(pb.createMultiBody(baseVisualShapeIndex=shape, physicsClientId=self._client))
+
+    def _build(self) -> None:
+        s = self.scene
+        (x0, x1), (y0, y1) = s.bench_x, s.bench_y
+        thickness = 0.04
+        bench = self._box((x1 - x0, y1 - y0, thickness), (0.45, 0.36, 0.28, 1.0))
+        pb.resetBasePositionAndOrientation(
+            bench, [(x0 + x1) / 2, (y0 + y1) / 2, s.bench_top_z - thickness / 2], [0, 0, 0, 1],
+            physicsClientId=self._client,
+        )
+        for ref in s.references:
+            body, _ = self._code_body(encode_reference(ref.name), f"ref-{ref.name}")
+            pb.resetBasePositionAndOrientation(
+                body, [ref.x, ref.y, s.bench_top_z + _LIFT_CODE], [0, 0, 0, 1],
+                physicsClientId=self._client,
+            )
+        for part in s.parts:
+            box = self._box(part.size, (*part.colour, 1.0))
+            code = None
+            if part.payload:
+                code = self._code_body(part.payload, f"part-{part.part_id}")[0]
+            self._bodies[part.part_id] = (box, code)
+            self._parts[part.part_id] = part
+            self._place(part)
+
+    def _place(self, part: SimPart) -> None:
+        box, code = self._bodies[part.part_id]
+        quat = pb.getQuaternionFromEuler([0, 0, part.yaw])
+        pb.resetBasePositionAndOrientation(box, list(part.position), quat,
+                                           physicsClientId=self._client)
+        if code is not None:
+            x, y, z = part.position
+            c, s = math.cos(part.yaw), math.sin(part.yaw)
+            dx, dy = part.code_offset
+            x, y = x + c * dx - s * dy, y + s * dx + c * dy
+            pb.resetBasePositionAndOrientation(
+                code, [x, y, z + part.size[2] / 2 + _LIFT_CODE], quat,
+                physicsClientId=self._client,
+            )
+        if part.part_id in self._covers:
+            self._place_cover(part)
+
+    def _place_cover(self, part: SimPart) -> None:
+        x, y, z = part.position
+        x, y = x + part.code_offset[0], y + part.code_offset[1]
+        pb.resetBasePositionAndOrientation(
+            self._covers[part.part_id], [x, y, z + part.size[2] / 2 + 0.08], [0, 0, 0, 1],
+            physicsClientId=self._client,
+        )
+
+    def part(self, part_id: str) -> SimPart:
+        return self._parts[part_id]
+
+    def move(self, part_id: str, position: Vec3, yaw: float | None = None) -> None:
+        """Put a part's box centre at `position` (bench frame), e.g. into a hand."""
+        old = self._parts[part_id]
+        new = replace(old, position=position, yaw=old.yaw if yaw is None else yaw)
+        self._parts[part_id] = new
+        self._place(new)
+
+    def cover(self, part_id: str, covered: bool = True) -> None:
+        """Hide a part's code under a board (a hand, another part) or uncover it."""
+        if covered and part_id not in self._covers:
+            side = self.scene.marker_size_m * 2.2
+            self._covers[part_id] = self._box((side, side, 0.01), (0.2, 0.25, 0.3, 1.0))
+            self._place_cover(self._parts[part_id])
+        elif not covered and part_id in self._covers:
+            pb.removeBody(self._covers.pop(part_id), physicsClientId=self._client)
+
+    # --- the camera --------------------------------------------------------------
+    @property
+    def size(self) -> tuple[int, int]:
+        return self._size
+
+    @property
+    def fps(self) -> float:
+        return self._fps
+
+    @property
+    def intrinsics(self) -> CameraIntrinsics:
+        """Exactly the renderer's projection (no distortion)."""
+        return CameraIntrinsics.from_fov(self._size[0], self._size[1], self._hfov)
+
+    def _jittered(self) -> CameraPlacement:
+        j = self.degradation.jitter_m
+        if j <= 0:
+            return self.placement
+        eye = np.array(self.placement.eye) + self._rng.normal(0, j, 3)
+        target = np.array(self.placement.target) + self._rng.normal(0, j * 3, 3)
+        return CameraPlacement(
+            (float(eye[0]), float(eye[1]), float(eye[2])),
+            (float(target[0]), float(target[1]), float(target[2])),
+            self.placement.up,
+        )
+
+    def render(self, placement: CameraPlacement | None = None) -> Image:
+        """One clean frame from `placement` (default: the camera's own), BGR."""
+        placement = placement or self.placement
+        w, h = self._size
+        vfov = math.degrees(2 * math.atan(math.tan(math.radians(self._hfov) / 2) * h / w))
+        view = pb.computeViewMatrix(placement.eye, placement.target, placement.up)
+        projection = pb.computeProjectionMatrixFOV(vfov, w / h, 0.05, 10.0)
+        light = np.array(self.scene.light_direction, dtype=np.float64)
+        if self.degradation.light_jitter > 0:
+            light = light + self._rng.normal(0, self.degradation.light_jitter, 3)
+        _, _, rgba, _, _ = pb.getCameraImage(
+            w, h, view, projection, lightDirection=light.tolist(), shadow=0,
+            renderer=pb.ER_TINY_RENDERER, physicsClientId=self._client,
+        )
+        rgb = np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)[:, :, :3]
+        return np.ascontiguousarray(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+
+    def _degrade(self, image: Image) -> Image:
+        d = self.degradation
+        out: npt.NDArray[np.float32] = image.astype(np.float32)
+        if d.blur_px > 0:
+            sigma = float(self._rng.uniform(0, d.blur_px))
+            if sigma > 0.05:
+                out = np.asarray(cv2.GaussianBlur(out, (0, 0), sigma), dtype=np.float32)
+        if d.gain != (1.0, 1.0):
+            out *= float(self._rng.uniform(*d.gain))
+        if d.noise > 0:
+            out += self._rng.normal(0, d.noise, out.shape).astype(np.float32)
+        return np.clip(out, 0, 255).astype(np.uint8)
+
+    def read(self) -> Frame:
+        placement = self._jittered()
+        self.last_pose = placement.pose()
+        image = self._degrade(self.render(placement))
+        frame = Frame(image, self._index / self._fps, self._index)
+        self._index += 1
+        return frame
+
+    def close(self) -> None:
+        if self._client >= 0 and pb.isConnected(self._client):
+            pb.disconnect(self._client)
+        self._client = -1
+        shutil.rmtree(self._dir, ignore_errors=True)
+
+    def __enter__(self) -> SimulatedCamera:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def write_video(frames: Iterable[Frame], path: str | Path, fps: float = 30.0) -> int:
+    """Write frames to a video file (lossless FFV1 in .avi/.mkv, else mp4v); returns
+    how many were written. Lossless keeps a replay decoding like the live frames."""
+    path = Path(path)
+    writer: cv2.VideoWriter | None = None
+    count = 0
+    try:
+        for frame in frames:
+            if writer is None:
+                h, w = frame.image.shape[:2]
+                codec = "FFV1" if path.suffix.lower() in (".avi", ".mkv") else "mp4v"
+                fourcc = cv2.VideoWriter.fourcc(*codec)
+                writer = cv2.VideoWriter(str(path), fourcc, fps, (w, h))
+                if not writer.isOpened():
+                    raise OSError(f"cannot write video {path} with codec {codec}")
+            writer.write(frame.image)
+            count += 1
+    finally:
+        if writer is not None:
+            writer.release()
+    return count
+
