@@ -209,8 +209,8 @@ def run_instance(
                 return row
             runs.append((time.perf_counter() - t0, result))
             again = plan_scenario(scenario, workers=workers, cache_dir=cache_dir)
-        cold.append(result.plan.stats["checks_s"])
-        cached.append(again.plan.stats["checks_s"])
+        cold.append(result.plan.statistics["checks_s"])
+        cached.append(again.plan.statistics["checks_s"])
     row.checks_cold_s = statistics.median(cold)
     row.checks_cached_s = statistics.median(cached)
     row.runs_s = [t for t, _ in runs]
@@ -219,11 +219,11 @@ def run_instance(
     _, chosen = next(r for r in runs if r[0] == median_s)
     row.plan_s = median_s
     row.first_branch_s = statistics.median(r.first_branch_s for _, r in runs)
-    row.stats = {k: int(chosen.plan.stats[k]) for k in STAT_KEYS}
+    row.stats = {k: int(chosen.plan.statistics[k]) for k in STAT_KEYS}
     row.solves = chosen.solves
     t0 = time.perf_counter()
     try:
-        found = audit(chosen.plan.doc)
+        found = audit(chosen.plan.to_json())
     except Exception as err:
         # The audit is developed alongside the planner; a crash in it must not
         # cost a benchmark run that took minutes, so it becomes the row's verdict.

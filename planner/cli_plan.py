@@ -71,10 +71,10 @@ def run_plan(args: argparse.Namespace) -> int:
     if args.dot:
         Path(args.dot).write_text(plan.dot())
     print(
-        f"{scenario.name}: plan with {plan.stats['dag_nodes']} distinct nodes "
+        f"{scenario.name}: plan with {plan.statistics['dag_nodes']} distinct nodes "
         f"(first branch after {result.first_branch_s:.2f} s)"
     )
-    print(format_table(TABLE_HEADER, [stats_row(scenario.name, plan.stats)]))
+    print(format_table(TABLE_HEADER, [stats_row(scenario.name, plan.statistics)]))
     if args.first_branch:
         print("\nFirst branch (the outcomes the robot hopes for):")
         for i, (action, outcome) in enumerate(plan.first_branch(), 1):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from planner.terms import Term, TermError, constants, parse_term
+from planner.vocabulary import Term, TermError, constants, parse_term
 
 __all__ = ["Term", "TermError", "constants", "parse_term"]
 

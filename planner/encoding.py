@@ -16,6 +16,7 @@ CONCERNS = (
     "safety",
     "feasibility",
     "goal",
+    "milestones",
     "preferences",
 )
 

@@ -20,8 +20,10 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 
+from planner import walks
 from planner.encoding import FeasibilityContext
-from planner.solver import BranchSolver, State
+from planner.solver import BranchSolver, Successor
+from planner.vocabulary import Action, State
 
 MAX_HORIZON_FACTOR = 8
 
@@ -39,10 +41,9 @@ class Problem:
 @dataclass(frozen=True)
 class PlannedStep:
     state: State
-    action: str
-    kind: str
+    action: Action
     chosen: str | None
-    outcomes: tuple[tuple[str | None, State], ...]
+    outcomes: tuple[Successor, ...]
 
 
 @dataclass(frozen=True)
@@ -54,17 +55,21 @@ class BranchResult:
     horizon: int
     solve_s: float
     checks: int
+    start_goal: bool = False
 
 
 @dataclass
 class DagNode:
     state: State
-    action: str | None = None
-    kind: str | None = None
+    action: Action | None = None
     children: list[tuple[str | None, State]] = field(default_factory=list)
     expected: str | None = None  # the outcome the sequential plan hoped for
-    forbidden: set[str] = field(default_factory=set)
+    forbidden: set[str] = field(default_factory=set)  # action texts banned here
     goal: bool = False
+
+    @property
+    def kind(self) -> str | None:
+        return None if self.action is None else self.action.kind
 
 
 class DeadEnd(Exception):
@@ -103,32 +108,36 @@ class _BranchPlanner:
         t0 = time.perf_counter()
         calls0 = self.context.calls
         horizon = self.problem.horizon
-        steps = None
+        found = None
         # A branch that needs more steps than the default horizon is retried
         # with a longer one before it is called a dead end.
         while True:
-            steps = self.solver(horizon).plan(start, forbid)
-            if steps is not None or horizon * 2 > self.problem.horizon * MAX_HORIZON_FACTOR:
+            found = self.solver(horizon).plan(start, forbid)
+            if found is not None or horizon * 2 > self.problem.horizon * MAX_HORIZON_FACTOR:
                 break
             horizon *= 2
         planned = None
-        if steps is not None:
+        if found is not None:
             solver = self.solver(self.problem.horizon)
             planned = tuple(
                 PlannedStep(
                     s.state,
                     s.action,
-                    s.kind,
                     s.outcome,
                     # Deterministic steps: the plan itself says what follows.
-                    ((None, s.after),)
+                    (Successor(None, s.after, s.after_goal),)
                     if s.outcome is None
-                    else tuple((o.label, o.state) for o in solver.outcomes(s.state, s.action)),
+                    else tuple(solver.outcomes(s.state, s.action)),
                 )
-                for s in steps
+                for s in found.steps
             )
         return BranchResult(
-            start, planned, horizon, time.perf_counter() - t0, self.context.calls - calls0
+            start,
+            planned,
+            horizon,
+            time.perf_counter() - t0,
+            self.context.calls - calls0,
+            found is not None and found.start_goal,
         )
 
 
@@ -178,19 +187,6 @@ class ConditionalPlanner:
     @property
     def cancelled(self) -> bool:
         return self._cancel.is_set()
-
-    def is_goal(self, state: State) -> bool:
-        # Mirrors goal.lp so goal leaves need no solve.
-        attached = {
-            tuple(f[len("attached(") : -1].split(",")[:2])
-            for f in state
-            if f.startswith("attached(")
-        }
-        busy = any(
-            f.startswith(("holding(", "wantToAttach(", "acceptToAttach(", "requestedAttach("))
-            for f in state
-        )
-        return not busy and all(pair in attached for pair in self.goal_pairs)
 
     def build(self, root: State) -> State:
         """Plan from `root`; returns it (the DAG is in `self.nodes`)."""
@@ -271,10 +267,11 @@ class ConditionalPlanner:
             self._pool = None
 
     # -- DAG maintenance
-    def _node(self, state: State) -> DagNode:
+    def _node(self, state: State, goal: bool = False) -> DagNode:
+        """The node of `state`; `goal` as the solver said (the root learns it from its solve)."""
         node = self.nodes.get(state)
         if node is None:
-            node = self.nodes[state] = DagNode(state, goal=self.is_goal(state))
+            node = self.nodes[state] = DagNode(state, goal=goal)
             self.parents.setdefault(state, set())
         return node
 
@@ -299,18 +296,22 @@ class ConditionalPlanner:
             return [], []  # planned meanwhile along another branch
         if result.steps is None:
             return [], self._dead_end(result.start, root, result.horizon)
+        if result.start_goal:
+            start.goal = True
+            return [], []
         ahead: list[State] = []
         todo: list[State] = []
         for step in result.steps:
             node = self._node(step.state)
             if node.action is not None or node.goal:
                 break  # the rest of this branch is already planned
-            node.action, node.kind = step.action, step.kind
-            node.children = list(step.outcomes)
+            node.action = step.action
+            node.children = [(o.label, o.state) for o in step.outcomes]
             node.expected = step.chosen
             last = step is result.steps[-1]
-            for label, succ in step.outcomes:
-                child = self._node(succ)
+            for outcome in step.outcomes:
+                label, succ = outcome.label, outcome.state
+                child = self._node(succ, outcome.goal)
                 self.parents[succ].add(step.state)
                 # Other outcomes need plans of their own; so does the end of
                 # this branch when it stopped at a milestone short of the goal.
@@ -338,10 +339,10 @@ class ConditionalPlanner:
             pnode = self.nodes[parent]
             if pnode.action is None:
                 continue
-            pnode.forbidden.add(pnode.action)
+            pnode.forbidden.add(str(pnode.action))
             for _, succ in pnode.children:
                 self.parents[succ].discard(parent)
-            pnode.action, pnode.kind, pnode.children, pnode.expected = None, None, [], None
+            pnode.action, pnode.children, pnode.expected = None, [], None
             todo.append(parent)
         return todo
 
@@ -366,41 +367,21 @@ class ConditionalPlanner:
 
     def _prune(self, root: State) -> None:
         """Drops nodes no longer reachable (after dead ends) and checks for cycles."""
-        seen: set[State] = set()
-        stack = [root]
-        while stack:
-            state = stack.pop()
-            if state in seen:
-                continue
-            seen.add(state)
+
+        def successors(state: State) -> list[State]:
+            return [succ for _, succ in self.nodes[state].children]
+
+        seen = walks.breadth_first(root, successors)
+        for state in seen:
             node = self.nodes[state]
             if node.action is None and not node.goal:
                 raise DeadEnd(f"state left unplanned: {{{', '.join(sorted(state))}}}")
-            stack.extend(succ for _, succ in node.children)
-        self.nodes = {s: n for s, n in self.nodes.items() if s in seen}
-        _assert_acyclic(self.nodes, root)
+        kept = set(seen)
+        self.nodes = {s: n for s, n in self.nodes.items() if s in kept}
+        loop = walks.find_cycle(root, successors)
+        if loop is not None:
+            raise DeadEnd(f"the plan loops back to state {{{', '.join(sorted(loop))}}}")
 
     def _progress(self, open_count: int, t0: float) -> Progress:
         done = sum(1 for n in self.nodes.values() if n.action is not None or n.goal)
         return Progress(done, open_count, self.solves, time.perf_counter() - t0)
-
-
-def _assert_acyclic(nodes: dict[State, DagNode], root: State) -> None:
-    colour: dict[State, int] = {}
-    stack: list[tuple[State, int]] = [(root, 0)]
-    while stack:
-        state, i = stack.pop()
-        children = nodes[state].children
-        if i == 0:
-            if colour.get(state) == 2:
-                continue
-            colour[state] = 1
-        if i < len(children):
-            stack.append((state, i + 1))
-            succ = children[i][1]
-            if colour.get(succ) == 1:
-                raise DeadEnd(f"the plan loops back to state {{{', '.join(sorted(succ))}}}")
-            if colour.get(succ) != 2:
-                stack.append((succ, 0))
-        else:
-            colour[state] = 2

@@ -1,61 +1,250 @@
-"""The `tandem-plan/1` file: nodes, statistics, Graphviz DOT and text tables."""
+"""The `tandem-plan/1` plan: typed nodes, load/save with validation, walks, DOT, tables.
+
+A `Plan` is what every consumer takes (executor, store, dashboard, CLI); its
+JSON form is the file format of the architecture notes, and files written
+before these types existed load unchanged. A plan still being built (the
+dashboard's growing tree) has no statistics: `plan.partial`.
+
+The audit (`planner/audit.py`) deliberately reads the raw JSON instead: it
+judges files, including ones this loader would refuse, and names every
+violation rather than the first.
+"""
 
 from __future__ import annotations
 
 import json
-from collections import deque
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from planner import phrases
-from planner.hcp import DagNode
-from planner.solver import State
+from pydantic import BaseModel, ConfigDict, PlainSerializer, PlainValidator, ValidationError
+
+from planner import phrases, walks
+from planner.vocabulary import (
+    ACTION_TYPES,
+    Action,
+    Communication,
+    TermError,
+    parse_action,
+    parse_term,
+)
+
+if TYPE_CHECKING:
+    from planner.hcp import DagNode
+    from planner.vocabulary import State
 
 FORMAT = "tandem-plan/1"
+# The paper's columns (Tables 1-3), then the number of distinct nodes.
 STAT_KEYS = ("L", "D", "A", "S", "C", "K", "O", "CF", "R", "DN", "BF", "N", "dag_nodes")
-KIND_COLOURS = {
+TIMING_KEYS = ("plan_s", "checks_s")
+# "open" only in a partial plan: a state that waits for its solve.
+NodeKind = Literal["actuation", "sensing", "communication", "goal", "open"]
+KIND_COLOURS: dict[str, str] = {
     "actuation": "#d9d9d9",
     "sensing": "#ffe680",
     "communication": "#9fd3ff",
     "goal": "#a8e6a1",
+    "open": "#f4f4f4",
 }
-REQUESTS = ("requestToUnhold", "requestToAttach")
 
 
-@dataclass
-class Plan:
-    """A plan as stored: the JSON document, with helpers to read it."""
+class PlanFormatError(ValueError):
+    """A plan file that is not a valid `tandem-plan/1` document: one line, with where."""
 
-    doc: dict[str, Any]
+
+def _to_action(value: object) -> Action:
+    if isinstance(value, ACTION_TYPES):
+        return value
+    if not isinstance(value, str):
+        raise ValueError("an action must be a string")
+    try:
+        return parse_action(value)
+    except TermError as err:
+        raise ValueError(str(err)) from err
+
+
+ActionField = Annotated[Action, PlainValidator(_to_action), PlainSerializer(str, return_type=str)]
+
+
+class Child(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    outcome: str | None  # None for a deterministic action
+    node: str
+
+
+class Motion(BaseModel):
+    """The arm path an actuation node executes: waypoints of the arm's 7 joints."""
+
+    model_config = ConfigDict(extra="forbid")
+    arm: str
+    joints: list[str]
+    path: list[list[float]]
+
+
+class PlanNode(BaseModel):
+    model_config = ConfigDict(extra="allow")  # the format allows fields of later versions
+    kind: NodeKind
+    action: ActionField | None  # None at a goal
+    state: list[str]  # fluents true before the action, canonical text
+    children: list[Child]
+    expected: str | None = None  # the outcome the planner hoped for
+    say: str | None = None  # communication: what the robot says
+    why: str | None = None  # communication: the reason
+    motion: Motion | None = None  # actuation: the arm path
 
     @property
-    def nodes(self) -> dict[str, dict[str, Any]]:
-        return self.doc["nodes"]  # type: ignore[no-any-return]
+    def outcomes(self) -> list[str]:
+        return [c.outcome for c in self.children if c.outcome is not None]
+
+    def child(self, outcome: str | None) -> str | None:
+        """The node after `outcome`, or None if the node has no such outcome."""
+        return next((c.node for c in self.children if c.outcome == outcome), None)
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "kind": self.kind,
+            "action": None if self.action is None else str(self.action),
+            "state": list(self.state),
+            "children": [{"outcome": c.outcome, "node": c.node} for c in self.children],
+        }
+        for key in ("expected", "why", "say"):
+            value = getattr(self, key)
+            if value is not None:
+                out[key] = value
+        if self.motion is not None:
+            out["motion"] = self.motion.model_dump()
+        out.update(self.model_extra or {})
+        return out
+
+
+class ScenarioRef(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: str
+    sha256: str
+
+
+class Plan(BaseModel):
+    """A conditional plan: a DAG of nodes by id, rooted at `root`."""
+
+    model_config = ConfigDict(extra="allow")
+    format: Literal["tandem-plan/1"] = "tandem-plan/1"
+    scenario: ScenarioRef
+    facts: list[str]
+    root: str
+    nodes: dict[str, PlanNode]
+    stats: dict[str, int | float] | None = None  # STAT_KEYS and TIMING_KEYS; None: partial
 
     @property
-    def root(self) -> str:
-        return self.doc["root"]  # type: ignore[no-any-return]
+    def partial(self) -> bool:
+        """True for a plan still being built: no statistics yet, leaves may be open."""
+        return self.stats is None
 
     @property
-    def stats(self) -> dict[str, Any]:
-        return self.doc["stats"]  # type: ignore[no-any-return]
+    def statistics(self) -> dict[str, int | float]:
+        """The statistics of a complete plan (`PlanFormatError` for a partial one)."""
+        if self.stats is None:
+            raise PlanFormatError("a partial plan has no statistics yet")
+        return self.stats
 
-    def write(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.doc, indent=1) + "\n")
+    # -- load and save
+    @classmethod
+    def from_json(cls, doc: object, source: str = "plan") -> Plan:
+        """The plan of a `tandem-plan/1` document; `PlanFormatError` names the first fault."""
+        if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+            raise PlanFormatError(f"{source}: not a {FORMAT} document")
+        try:
+            plan = cls.model_validate(doc)
+        except ValidationError as err:
+            first = err.errors()[0]
+            where = ".".join(str(p) for p in first["loc"])
+            raise PlanFormatError(f"{source}: {where}: {first['msg']}") from None
+        plan._check_links(source)
+        return plan
+
+    def _check_links(self, source: str) -> None:
+        if self.root not in self.nodes:
+            raise PlanFormatError(f"{source}: root: no node {self.root!r}")
+        for node_id, node in self.nodes.items():
+            for child in node.children:
+                if child.node not in self.nodes:
+                    raise PlanFormatError(f"{source}: nodes.{node_id}: no child node {child.node}")
+            if (node.action is None) != (node.kind in ("goal", "open")):
+                raise PlanFormatError(f"{source}: nodes.{node_id}: only goals have no action")
+        if self.stats is not None:
+            missing = [k for k in STAT_KEYS if k not in self.stats]
+            if missing:
+                raise PlanFormatError(f"{source}: stats: missing {', '.join(missing)}")
 
     @classmethod
     def read(cls, path: str | Path) -> Plan:
-        return cls(json.loads(Path(path).read_text()))
+        try:
+            doc = json.loads(Path(path).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise PlanFormatError(f"{path}: cannot read plan: {err}") from err
+        return cls.from_json(doc, str(path))
+
+    def to_json(self) -> dict[str, Any]:
+        doc: dict[str, Any] = {
+            "format": FORMAT,
+            "scenario": self.scenario.model_dump(),
+            "facts": list(self.facts),
+            "root": self.root,
+            "nodes": {node_id: node.to_json() for node_id, node in self.nodes.items()},
+        }
+        if self.stats is not None:
+            doc["stats"] = dict(self.stats)
+        doc.update(self.model_extra or {})
+        return doc
+
+    def write(self, path: str | Path) -> None:
+        Path(path).write_text(json.dumps(self.to_json(), indent=1) + "\n")
+
+    # -- walks
+    def children_of(self, node_id: str) -> list[str]:
+        return [c.node for c in self.nodes[node_id].children]
+
+    def breadth_first(self) -> list[str]:
+        return walks.breadth_first(self.root, self.children_of)
+
+    def postorder(self) -> list[str]:
+        return walks.postorder(self.root, self.children_of)
+
+    def expected_path(self) -> list[tuple[str, str | None]]:
+        """(node id, outcome taken) from the root along the expected outcomes to a leaf;
+        the leaf's outcome is None. Stops at a node seen before (a partial plan)."""
+        out: list[tuple[str, str | None]] = []
+        seen: set[str] = set()
+        node_id = self.root
+        while node_id not in seen:
+            seen.add(node_id)
+            kids = self.nodes[node_id].children
+            if not kids:
+                out.append((node_id, None))
+                break
+            expected = self.nodes[node_id].expected
+            child = next((c for c in kids if c.outcome == expected), kids[0])
+            out.append((node_id, child.outcome))
+            node_id = child.node
+        return out
 
     def first_branch(self) -> list[tuple[str, str | None]]:
         """The branch the planner expects (its hoped-for outcomes): (action, outcome)."""
         return [
-            (self.nodes[node_id]["action"], outcome)
-            for node_id, outcome in expected_path(self.doc)
-            if self.nodes[node_id]["kind"] != "goal"
+            (str(self.nodes[node_id].action), outcome)
+            for node_id, outcome in self.expected_path()
+            if self.nodes[node_id].kind != "goal"
         ]
+
+    def outcome_labels(self) -> set[str]:
+        return {label for node in self.nodes.values() for label in node.outcomes}
+
+    def fact_values(self, name: str) -> Iterator[tuple[str, ...]]:
+        """The constant arguments of every fact `name(...)`."""
+        for text in self.facts:
+            if text.startswith(name):
+                term = parse_term(text)
+                if term.name == name:
+                    yield tuple(str(a) for a in term.args)
 
     def dot(self) -> str:
         lines = [
@@ -63,145 +252,121 @@ class Plan:
             '  node [shape=box, style="rounded,filled", fontname=Helvetica];',
         ]
         for node_id, node in self.nodes.items():
-            label = node["action"] or "goal"
-            colour = KIND_COLOURS[node["kind"]]
+            label = str(node.action) if node.action is not None else "goal"
+            colour = KIND_COLOURS[node.kind]
             lines.append(f'  {node_id} [label="{label}", fillcolor="{colour}"];')
-            for child in node["children"]:
-                edge = f' [label="{child["outcome"]}"]' if child["outcome"] is not None else ""
-                lines.append(f"  {node_id} -> {child['node']}{edge};")
+            for child in node.children:
+                edge = f' [label="{child.outcome}"]' if child.outcome is not None else ""
+                lines.append(f"  {node_id} -> {child.node}{edge};")
         lines.append("}")
         return "\n".join(lines) + "\n"
 
 
 def build_plan(
-    nodes: dict[State, DagNode],
+    nodes: Mapping[State, DagNode],
     root: State,
     *,
     scenario_name: str,
     scenario_sha256: str,
     facts: list[str],
-    plan_s: float,
-    checks_s: float,
+    timings: tuple[float, float] | None = None,
 ) -> Plan:
+    """The plan of the builder's DAG, nodes numbered breadth-first. `timings`
+    (plan s, checks s) make it complete with statistics; None: a partial plan,
+    where states still open become leaves without an action."""
     ids = number_states(nodes, root)
     fact_set = frozenset(facts)
-    verbosity = next((f[len("verbosity(") : -1] for f in facts if f.startswith("verbosity(")), "")
-    out: dict[str, dict[str, Any]] = {}
+    verbosity = _fact_value(facts, "verbosity") or ""
+    out: dict[str, PlanNode] = {}
     for state, node_id in ids.items():
-        node = nodes[state]
-        entry: dict[str, Any] = {
-            "kind": "goal" if node.goal else node.kind,
-            "action": None if node.goal else node.action,
-            "state": sorted(state),
-            "children": [{"outcome": label, "node": ids[succ]} for label, succ in node.children],
-        }
-        if node.expected is not None:
-            entry["expected"] = node.expected
-        if node.kind == "communication" and node.action is not None:
-            entry["why"] = phrases.why(node.action, state, fact_set)
-            entry["say"] = phrases.say(node.action, verbosity, entry["why"])
-        out[node_id] = entry
-    doc: dict[str, Any] = {
-        "format": FORMAT,
-        "scenario": {"name": scenario_name, "sha256": scenario_sha256},
-        "facts": sorted(facts),
-        "root": ids[root],
-        "nodes": out,
-    }
-    doc["stats"] = {**tree_stats(doc), "plan_s": round(plan_s, 3), "checks_s": round(checks_s, 3)}
-    return Plan(doc)
+        node = nodes.get(state)
+        if node is None or (node.action is None and not node.goal):
+            # Still open while planning goes on: a leaf for now.
+            out[node_id] = PlanNode(kind="open", action=None, state=sorted(state), children=[])
+            continue
+        action = None if node.goal else node.action
+        say = why = None
+        if isinstance(action, Communication):
+            why = phrases.why(action, state, fact_set)
+            say = phrases.say(action, verbosity, why)
+        out[node_id] = PlanNode(
+            kind="goal" if node.goal else node.kind or "goal",
+            action=action,
+            state=sorted(state),
+            # While planning goes on, a child added after the numbering waits for
+            # the next snapshot.
+            children=[
+                Child(outcome=label, node=ids[succ]) for label, succ in node.children if succ in ids
+            ],
+            expected=node.expected,
+            say=say,
+            why=why,
+        )
+    plan = Plan(
+        scenario=ScenarioRef(name=scenario_name, sha256=scenario_sha256),
+        facts=sorted(facts),
+        root=ids[root],
+        nodes=out,
+    )
+    if timings is not None:
+        plan.stats = {**tree_stats(plan), "plan_s": round(timings[0], 3)}
+        plan.stats["checks_s"] = round(timings[1], 3)
+    return plan
 
 
-def expected_path(doc: dict[str, Any]) -> list[tuple[str, str | None]]:
-    """(node id, outcome taken) from the root along the expected outcomes to a leaf;
-    the leaf's outcome is None. Stops at a node seen before (a partial plan)."""
-    nodes = doc["nodes"]
-    out: list[tuple[str, str | None]] = []
-    seen: set[str] = set()
-    node_id: str = doc["root"]
-    while node_id not in seen:
-        seen.add(node_id)
-        kids = nodes[node_id]["children"]
-        if not kids:
-            out.append((node_id, None))
-            break
-        expected = nodes[node_id].get("expected")
-        child = next((c for c in kids if c["outcome"] == expected), kids[0])
-        out.append((node_id, child["outcome"]))
-        node_id = child["node"]
-    return out
+def _fact_value(facts: list[str], name: str) -> str | None:
+    for text in facts:
+        term = parse_term(text)
+        if term.name == name and len(term.args) == 1:
+            return str(term.args[0])
+    return None
 
 
 def number_states(nodes: Mapping[State, DagNode], root: State) -> dict[State, str]:
     """Node ids in breadth-first order, so that files are stable and readable. States
     not in `nodes` (still open, while planning goes on) get ids but no children."""
-    ids: dict[State, str] = {}
-    queue = deque([root])
-    while queue:
-        state = queue.popleft()
-        if state in ids:
-            continue
-        ids[state] = f"n{len(ids)}"
-        if state in nodes:
-            queue.extend(succ for _, succ in nodes[state].children)
-    return ids
+
+    def successors(state: State) -> list[State]:
+        node = nodes.get(state)
+        return [succ for _, succ in node.children] if node is not None else []
+
+    return {state: f"n{i}" for i, state in enumerate(walks.breadth_first(root, successors))}
 
 
-def tree_stats(doc: dict[str, Any]) -> dict[str, int]:
+def tree_stats(plan: Plan) -> dict[str, int | float]:
     """Statistics of the unfolded tree (shared nodes count once per path), by DP."""
-    nodes: dict[str, dict[str, Any]] = doc["nodes"]
     memo: dict[str, dict[str, int]] = {}
-    order = _postorder(nodes, doc["root"])
-    for node_id in order:
-        node = nodes[node_id]
-        kids = [memo[c["node"]] for c in node["children"]]
-        action = node["action"] or ""
-        name = action.split("(")[0]
-        nondet = any(c["outcome"] is not None for c in node["children"])
+    for node_id in plan.postorder():
+        node = plan.nodes[node_id]
+        kids = [memo[c.node] for c in node.children]
+        name = node.action.name if node.action is not None else ""
+        nondet = any(c.outcome is not None for c in node.children)
         s = {
             "N": 1 + sum(k["N"] for k in kids),
             "L": 1 if not kids else sum(k["L"] for k in kids),
             "K": (name == "askHelp") + sum(k["K"] for k in kids),
             "O": (name == "offerHelp") + sum(k["O"] for k in kids),
             "CF": (name == "confirmAttach") + sum(k["CF"] for k in kids),
-            "R": (name in REQUESTS) + sum(k["R"] for k in kids),
+            "R": (name in ("requestToUnhold", "requestToAttach")) + sum(k["R"] for k in kids),
             "DN": int(nondet) + sum(k["DN"] for k in kids),
             "BF": max([len(kids), *(k["BF"] for k in kids)]),
         }
         # The longest branch: first longest child in children order.
-        best = max(kids, key=lambda k: k["D"], default=None) if kids else None
-        if best is None:
+        if not kids:
             s.update(D=0, A=0, S=0, C=0)
         else:
-            first = next(k for k in kids if k["D"] == best["D"])
-            kind = node["kind"]
+            longest = max(k["D"] for k in kids)
+            first = next(k for k in kids if k["D"] == longest)
             s.update(
                 D=first["D"] + 1,
-                A=first["A"] + (kind == "actuation"),
-                S=first["S"] + (kind == "sensing"),
-                C=first["C"] + (kind == "communication"),
+                A=first["A"] + (node.kind == "actuation"),
+                S=first["S"] + (node.kind == "sensing"),
+                C=first["C"] + (node.kind == "communication"),
             )
         memo[node_id] = s
-    stats = dict(memo[doc["root"]])
-    stats["dag_nodes"] = len(nodes)
+    stats: dict[str, int | float] = dict(memo[plan.root])
+    stats["dag_nodes"] = len(plan.nodes)
     return {k: stats[k] for k in STAT_KEYS}
-
-
-def _postorder(nodes: dict[str, dict[str, Any]], root: str) -> list[str]:
-    order: list[str] = []
-    seen: set[str] = set()
-    stack: list[tuple[str, bool]] = [(root, False)]
-    while stack:
-        node_id, expanded = stack.pop()
-        if expanded:
-            order.append(node_id)
-            continue
-        if node_id in seen:
-            continue
-        seen.add(node_id)
-        stack.append((node_id, True))
-        stack.extend((c["node"], False) for c in reversed(nodes[node_id]["children"]))
-    return order
 
 
 TABLE_HEADER = (
@@ -221,7 +386,7 @@ TABLE_HEADER = (
 )
 
 
-def stats_row(name: str, stats: dict[str, Any]) -> tuple[str, ...]:
+def stats_row(name: str, stats: Mapping[str, Any]) -> tuple[str, ...]:
     return (
         name,
         str(stats["L"]),

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 from planner.hcp import ConditionalPlanner, DagNode, Problem, Progress
 from planner.plan import Plan, build_plan
 from planner.scenario import Scenario
-from planner.solver import State
+from planner.vocabulary import State
 
 if TYPE_CHECKING:
     from planner.feasibility.checks import BenchChecks
@@ -131,8 +131,7 @@ def _plan(
         scenario_name=scenario.name,
         scenario_sha256=scenario.sha256,
         facts=facts,
-        plan_s=time.perf_counter() - t0,
-        checks_s=checks_s,
+        timings=(time.perf_counter() - t0, checks_s),
     )
     if checks is not None:
         # Paths only for the actions the plan uses, once it is built: the solver
@@ -140,8 +139,8 @@ def _plan(
         from planner.feasibility.motions import add_motions
 
         t_motion = time.perf_counter()
-        add_motions(plan.doc, checks)
+        add_motions(plan, checks)
         checks_s += time.perf_counter() - t_motion
-        plan.stats["plan_s"] = round(time.perf_counter() - t0, 3)
-        plan.stats["checks_s"] = round(checks_s, 3)
-    return PlanResult(plan, first[0] if first else plan.stats["plan_s"], planner.solves)
+        plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
+        plan.statistics["checks_s"] = round(checks_s, 3)
+    return PlanResult(plan, first[0] if first else plan.statistics["plan_s"], planner.solves)

@@ -1,9 +1,11 @@
 """Multi-shot solving: ground the domain once, then plan from any state.
 
 A `BranchSolver` holds two grounded programs: the planning program (horizon
-H, goal and preferences) and the one-step transition program (no goal) used
-to list every outcome of an action. States are passed as assumptions on the
-`init/1` externals, so no branch is ever grounded again.
+H, milestones and preferences) and the one-step transition program (no
+milestones) used to list every outcome of an action. States are passed as
+assumptions on the `init/1` externals, so no branch is ever grounded again.
+Both show `goalAt/1` (goal.lp), so every state comes back with whether it is
+a goal: the goal test is written once, in ASP.
 """
 
 from __future__ import annotations
@@ -14,8 +16,7 @@ from dataclasses import dataclass
 import clingo
 
 from planner.encoding import FeasibilityContext, ground
-
-State = frozenset[str]
+from planner.vocabulary import Action, State, parse_action
 
 
 @dataclass(frozen=True)
@@ -23,16 +24,27 @@ class Step:
     """One action of a sequential plan, in the state before it."""
 
     state: State
-    action: str
-    kind: str
+    action: Action
     outcome: str | None  # the outcome the solver chose; None if deterministic
     after: State  # the state after the action, with that outcome
+    after_goal: bool  # whether `after` is a goal
 
 
 @dataclass(frozen=True)
-class Outcome:
+class SequentialPlan:
+    """A solver's plan from a state: its steps (none if `start_goal`)."""
+
+    steps: list[Step]
+    start_goal: bool
+
+
+@dataclass(frozen=True)
+class Successor:
+    """One outcome of an action: its label (None if deterministic) and the state after."""
+
     label: str | None
     state: State
+    goal: bool
 
 
 @dataclass
@@ -51,7 +63,6 @@ class BranchSolver:
         # assumptions cost a symbol-table lookup each on every solve.
         self._fluents = _externals(self._plan_ctl, "init")
         self._forbid = _externals(self._plan_ctl, "forbid")
-        self._kinds = _kinds(self._plan_ctl)
         # The one-step program is grounded when first needed: solvers made for
         # longer horizons only plan and never list outcomes.
         self._step: tuple[clingo.Control, dict[str, int]] | None = None
@@ -59,13 +70,13 @@ class BranchSolver:
 
     def _step_program(self) -> tuple[clingo.Control, dict[str, int]]:
         if self._step is None:
-            step_skip = tuple(sorted({*self.skip, "goal", "preferences"}))
+            step_skip = tuple(sorted({*self.skip, "milestones", "preferences"}))
             ctl = ground(self.facts, 1, self.context, skip=step_skip)
             ctl.configuration.solve.models = 0  # type: ignore[union-attr]
             self._step = (ctl, _externals(ctl, "init"))
         return self._step
 
-    def plan(self, state: State, forbid: Iterable[str] = ()) -> list[Step] | None:
+    def plan(self, state: State, forbid: Iterable[str] = ()) -> SequentialPlan | None:
         """An optimal sequential plan from `state` (outcomes chosen by the solver), or None."""
         assumptions = _assume(self._fluents, state)
         banned = set(forbid)
@@ -80,25 +91,28 @@ class BranchSolver:
             return None
         return self._steps(best)
 
-    def outcomes(self, state: State, action: str) -> list[Outcome]:
+    def outcomes(self, state: State, action: Action) -> list[Successor]:
         """Every outcome of `action` in `state` and the state after it."""
-        occ = self._occ_literal(action)
+        occ = self._occ_literal(str(action))
         if occ is None:
             return []
         step_ctl, step_fluents = self._step_program()
         assumptions = _assume(step_fluents, state)
         assumptions.append(occ)
-        found: list[Outcome] = []
+        found: list[Successor] = []
 
         def on_model(model: clingo.Model) -> None:
             label: str | None = None
             after: set[str] = set()
+            goal = False
             for sym in model.symbols(shown=True):
                 if sym.name == "out":
                     label = str(sym.arguments[1])
                 elif sym.name == "h" and sym.arguments[1].number == 1:
                     after.add(str(sym.arguments[0]))
-            found.append(Outcome(label, frozenset(after)))
+                elif sym.name == "goalAt" and sym.arguments[0].number == 1:
+                    goal = True
+            found.append(Successor(label, frozenset(after), goal))
 
         step_ctl.solve(assumptions=assumptions, on_model=on_model)
         found.sort(key=lambda o: (o.label is None, o.label or ""))
@@ -112,13 +126,18 @@ class BranchSolver:
             self._occ[action] = atom.literal if atom is not None else None
         return self._occ[action]
 
-    def _steps(self, symbols: Sequence[clingo.Symbol]) -> list[Step]:
+    def _steps(self, symbols: Sequence[clingo.Symbol]) -> SequentialPlan:
         states: dict[int, set[str]] = {}
         actions: dict[int, str] = {}
         chosen: dict[int, str] = {}
-        # Strings are split by hand: reading arguments through the C API is
-        # the slowest part of decoding a model.
+        goals: set[int] = set()
+        # The shown atoms' text is split by hand, the one place that does: reading
+        # arguments through the C API is the slowest part of decoding a model. The
+        # pieces are canonical term texts, typed by `parse_action` (cached).
         for text in map(str, symbols):
+            if text.startswith("goalAt("):
+                goals.add(int(text[7:-1]))
+                continue
             head, _, time_text = text[:-1].rpartition(",")
             t = int(time_text)
             if text.startswith("h("):
@@ -128,19 +147,17 @@ class BranchSolver:
             elif text.startswith("out("):
                 action, _, label = head[4:].rpartition(",")
                 chosen[t] = label
-        steps = []
-        for t in sorted(actions):
-            action = actions[t]
-            steps.append(
-                Step(
-                    frozenset(states.get(t, set())),
-                    action,
-                    self._kinds[action],
-                    chosen.get(t),
-                    frozenset(states.get(t + 1, set())),
-                )
+        steps = [
+            Step(
+                frozenset(states.get(t, set())),
+                parse_action(actions[t]),
+                chosen.get(t),
+                frozenset(states.get(t + 1, set())),
+                t + 1 in goals,
             )
-        return steps
+            for t in sorted(actions)
+        ]
+        return SequentialPlan(steps, 0 in goals)
 
 
 def _externals(ctl: clingo.Control, name: str) -> dict[str, int]:
@@ -155,13 +172,6 @@ def _externals(ctl: clingo.Control, name: str) -> dict[str, int]:
             ctl.assign_external(atom.symbol, None)
             out[str(atom.symbol.arguments[0])] = atom.literal
     return out
-
-
-def _kinds(ctl: clingo.Control) -> dict[str, str]:
-    return {
-        str(a.symbol.arguments[0]): a.symbol.arguments[1].name
-        for a in ctl.symbolic_atoms.by_signature("kind", 2)
-    }
 
 
 def _assume(fluents: dict[str, int], state: State) -> list[int]:

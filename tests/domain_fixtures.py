@@ -6,7 +6,8 @@ from pathlib import Path
 
 from planner.encoding import FeasibilityContext
 from planner.scenario import Scenario, parse_scenario
-from planner.solver import BranchSolver, Step
+from planner.solver import BranchSolver, SequentialPlan
+from planner.vocabulary import parse_action
 
 DEFAULT = Path(__file__).resolve().parents[1] / "static" / "scenarios" / "declared.toml"
 
@@ -26,10 +27,10 @@ def solver(sc: Scenario, skip: tuple[str, ...] = (), horizon: int = 10) -> Branc
     return BranchSolver(facts, horizon, FeasibilityContext(lambda m, p: (m, p) in reach), skip=skip)
 
 
-def actions(steps: list[Step] | None) -> list[str]:
-    assert steps is not None, "expected a plan"
-    return [s.action for s in steps]
+def actions(found: SequentialPlan | None) -> list[str]:
+    assert found is not None, "expected a plan"
+    return [str(s.action) for s in found.steps]
 
 
 def successor(bs: BranchSolver, state: set[str], action: str) -> dict[str | None, set[str]]:
-    return {o.label: set(o.state) for o in bs.outcomes(frozenset(state), action)}
+    return {o.label: set(o.state) for o in bs.outcomes(frozenset(state), parse_action(action))}

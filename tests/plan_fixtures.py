@@ -20,7 +20,7 @@ PAPER_NAMES = [f"paper-{i:02d}" for i in range(1, 16)]
 
 @functools.cache
 def _planned(path: str) -> str:
-    return json.dumps(plan_scenario(load_scenario(path), workers=1).plan.doc)
+    return json.dumps(plan_scenario(load_scenario(path), workers=1).plan.to_json())
 
 
 def plan_of(path: Path) -> dict[str, Any]:

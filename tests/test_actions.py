@@ -127,9 +127,11 @@ def test_requests(bs) -> None:  # type: ignore[no-untyped-def]
 
 def test_verbosity_shapes_what_the_robot_says() -> None:
     from planner import phrases
+    from planner.vocabulary import AskHelp
 
-    terse = phrases.say("askHelp(leg2,top)", "terse")
-    normal = phrases.say("askHelp(leg2,top)", "normal")
-    chatty = phrases.say("askHelp(leg2,top)", "chatty", "No arm can reach leg2.")
+    ask = AskHelp("leg2", "top")
+    terse = phrases.say(ask, "terse")
+    normal = phrases.say(ask, "normal")
+    chatty = phrases.say(ask, "chatty", "No arm can reach leg2.")
     assert len(terse) < len(normal) < len(chatty)
     assert "leg2" in terse and chatty.endswith("(No arm can reach leg2.)")

@@ -22,7 +22,7 @@ DEFAULT = ROOT / "static" / "scenarios" / "default.toml"
 @pytest.fixture(scope="module")
 def doc(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     cache = tmp_path_factory.mktemp("cache")
-    return plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=cache).plan.doc
+    return plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=cache).plan.to_json()
 
 
 def test_spanning_tree_covers_every_node_once(doc: dict[str, Any]) -> None:

@@ -205,27 +205,28 @@ def test_planning_takes_feasibility_from_geometry_when_asked() -> None:
 def test_plan_motions_are_collision_free_within_limits_and_continuous(tmp_path: Path) -> None:
     from planner.feasibility.motions import joint_names
     from planner.planning import plan_scenario
-    from planner.terms import parse_term
+    from planner.plan import Motion
+    from planner.vocabulary import Hold, Unhold
 
     plan = plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=tmp_path).plan
-    motions = {}
+    motions: dict[tuple[str, str], Motion] = {}
     for node in plan.nodes.values():
-        if node["kind"] != "actuation":
+        if node.kind != "actuation":
             continue
-        motion = node["motion"]
-        assert motion["joints"] == joint_names(motion["arm"])
-        action = parse_term(node["action"])
+        motion = node.motion
+        assert motion is not None
+        assert motion.joints == joint_names(motion.arm)
         # A free arm waits at home: holds start there, releases end there.
-        if action.name == "hold":
-            assert motion["path"][0] == pytest.approx(HOME[motion["arm"]], abs=1e-3)
-        if action.name == "unhold":
-            assert motion["path"][-1] == pytest.approx(HOME[motion["arm"]], abs=1e-3)
-        motions[(motion["arm"], str(motion["path"]))] = motion
+        if isinstance(node.action, Hold):
+            assert motion.path[0] == pytest.approx(HOME[motion.arm], abs=1e-3)
+        if isinstance(node.action, Unhold):
+            assert motion.path[-1] == pytest.approx(HOME[motion.arm], abs=1e-3)
+        motions[(motion.arm, str(motion.path))] = motion
     assert len(motions) >= 4
     with World(load_scenario(DEFAULT)) as world:
         parts = frozenset(world.scene.parts)
         for arm, _ in motions:
-            path = motions[(arm, _)]["path"]
+            path = motions[(arm, _)].path
             for q in path:
                 assert world.robot.within_limits(arm, q, tol=1e-3)
             for a, b in zip(path, path[1:], strict=False):
@@ -243,7 +244,7 @@ def test_audit_checks_that_motions_are_continuous(tmp_path: Path) -> None:
     from planner.audit import audit
     from planner.planning import plan_scenario
 
-    doc = plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=tmp_path).plan.doc
+    doc = plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=tmp_path).plan.to_json()
     assert audit(doc) == []
     broken = copy.deepcopy(doc)
     node_id, node = next(

@@ -8,7 +8,7 @@ from planner import encoding, solver
 from planner.audit import audit
 from planner.hcp import ConditionalPlanner, DagNode, Progress
 from planner.planning import PlanningCancelled, plan_scenario
-from planner.solver import State
+from planner.vocabulary import State
 from tests.domain_fixtures import scenario
 
 
@@ -16,7 +16,7 @@ def test_progress_reports_done_and_open_until_nothing_is_open() -> None:
     seen: list[Progress] = []
     result = plan_scenario(scenario(), workers=1, progress=seen.append)
     assert seen and seen[-1].open == 0
-    assert seen[-1].done == result.plan.stats["dag_nodes"]
+    assert seen[-1].done == result.plan.statistics["dag_nodes"]
     assert any(p.open > 0 for p in seen)
     assert [p.solves for p in seen] == sorted(p.solves for p in seen)
 
@@ -32,7 +32,7 @@ def test_first_branch_is_complete_before_the_rest() -> None:
         while not nodes[state].goal:
             node = nodes[state]
             assert node.action is not None
-            path.append(node.action)
+            path.append(str(node.action))
             state = dict(node.children)[node.expected] if node.expected else node.children[0][1]
         snapshots.append((planner.solves, path))
 
@@ -59,9 +59,9 @@ def test_cancel_stops_planning() -> None:
 
 def test_parallel_workers_give_a_sound_plan() -> None:
     result = plan_scenario(scenario(), workers=2)
-    assert audit(result.plan.doc) == []
+    assert audit(result.plan.to_json()) == []
     # States reached along several branches are planned once: a DAG, not a tree.
-    assert result.plan.stats["N"] > result.plan.stats["dag_nodes"]
+    assert result.plan.statistics["N"] > result.plan.statistics["dag_nodes"]
 
 
 def test_grounds_once_per_horizon_and_solves_many_times(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -103,7 +103,7 @@ def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> N
     todo = planner._dead_end(after, root, DEFAULT_HORIZON)
     assert todo == [root]
     assert planner.nodes[root].action is None
-    assert planner.nodes[root].forbidden == {first_action}
+    assert planner.nodes[root].forbidden == {str(first_action)}
     again = worker.branch(root, frozenset(planner.nodes[root].forbidden))
     assert again.steps is not None and again.steps[0].action != first_action
     # A dead end at the start state itself is reported, naming the dead branch.
@@ -113,7 +113,7 @@ def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> N
 
 def test_one_worker_always_gives_the_same_plan() -> None:
     def doc() -> dict[str, object]:
-        d = plan_scenario(scenario(), workers=1).plan.doc
+        d = plan_scenario(scenario(), workers=1).plan.to_json()
         d["stats"] = {k: v for k, v in d["stats"].items() if not k.endswith("_s")}
         return d
 

@@ -129,10 +129,11 @@ def test_every_paper_instance_plans_with_geometry_and_passes_the_audit(
     scenario = load_scenario(PAPER_DIR / f"{name}.toml")
     assert scenario.feasibility.source == "geometry"
     cold = plan_scenario(scenario, workers=1, cache_dir=tmp_path).plan
-    assert audit(cold.doc) == []
-    assert cold.stats["L"] >= 2 and cold.stats["K"] >= 1  # contingencies, and help asked
-    actuation = [n for n in cold.nodes.values() if n["kind"] == "actuation"]
-    assert actuation and all(len(n["motion"]["path"][0]) == 7 for n in actuation)
+    assert audit(cold.to_json()) == []
+    stats = cold.statistics
+    assert stats["L"] >= 2 and stats["K"] >= 1  # contingencies, and help asked
+    actuation = [n for n in cold.nodes.values() if n.kind == "actuation"]
+    assert actuation and all(n.motion and len(n.motion.path[0]) == 7 for n in actuation)
     # The motion planner, not a table, makes the paper's regions what they are:
     # some arm reaches every robot-only and shared part, none a human-only one.
     with CheckCache(tmp_path) as cache, BenchChecks(scenario, cache=cache) as checks:
@@ -143,7 +144,7 @@ def test_every_paper_instance_plans_with_geometry_and_passes_the_audit(
         assert reached == (part.region != "humanOnly"), part.id
     # Planning again from the filled cache gives the same plan.
     warm = plan_scenario(scenario, workers=1, cache_dir=tmp_path).plan
-    assert _without_timings(warm.doc) == _without_timings(cold.doc)
+    assert _without_timings(warm.to_json()) == _without_timings(cold.to_json())
 
 
 def _without_timings(doc: dict[str, Any]) -> dict[str, Any]:

@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from planner.vocabulary import parse_action
 from tests.domain_fixtures import DEFAULT, actions, scenario, solver
 
 NO_INITIATIVE = ("[robot]", "[human]\ninitiative = 0\n\n[robot]")
@@ -41,9 +42,12 @@ def test_safety_never_confirms_a_dangerous_attachment() -> None:
     # Confirming would be as cheap as offering help; only safety tells them apart.
     sc = scenario(NO_INITIATIVE)
     state = frozenset({"humanHolding", "humanHoldingPart(foot1)", "attached(leg1,top,c1)"})
-    assert solver(sc, skip=("safety",)).outcomes(state, "confirmAttach(foot1,leg1)") != []
+    assert (
+        solver(sc, skip=("safety",)).outcomes(state, parse_action("confirmAttach(foot1,leg1)"))
+        != []
+    )
     bs = solver(sc)
-    assert bs.outcomes(state, "confirmAttach(foot1,leg1)") == []
+    assert bs.outcomes(state, parse_action("confirmAttach(foot1,leg1)")) == []
     planned = actions(bs.plan(state))
     assert planned[0] == "offerHelp(foot1,leg1)"
     assert not any(a.startswith("confirmAttach(foot1") for a in planned)
@@ -52,11 +56,11 @@ def test_safety_never_confirms_a_dangerous_attachment() -> None:
 def test_safety_never_asks_to_put_a_dangerous_part_down() -> None:
     bs = solver(scenario())
     held = frozenset({"humanHolding", "humanHoldingPart(foot1)", "reserved(foot1)"})
-    assert bs.outcomes(held, "requestToUnhold(foot1)") == []
+    assert bs.outcomes(held, parse_action("requestToUnhold(foot1)")) == []
     assert (
         bs.outcomes(
             held - {"reserved(foot1)"} | {"humanHoldingPart(foot2)"} - {"humanHoldingPart(foot1)"},
-            "requestToUnhold(foot2)",
+            parse_action("requestToUnhold(foot2)"),
         )
         != []
     )
@@ -116,5 +120,5 @@ def test_feasibility_is_hard_for_actuation_and_asks_for_help_instead() -> None:
 def test_purposeful_actuation_holds_only_needed_parts() -> None:
     bs = solver(scenario())
     state = frozenset({"humanFree", "attached(leg1,top,c1)"})
-    assert bs.outcomes(state, "hold(left,leg1)") == []  # already placed
-    assert bs.outcomes(state, "hold(left,foot1)") != []
+    assert bs.outcomes(state, parse_action("hold(left,leg1)")) == []  # already placed
+    assert bs.outcomes(state, parse_action("hold(left,foot1)")) != []

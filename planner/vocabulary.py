@@ -1,0 +1,394 @@
+"""The domain's words as typed values: fluents and actions of the paper's vocabulary.
+
+Every ASP term that leaves the solver or a plan file is read here, by one
+parse/format pair: `parse_fluent`/`parse_action` give typed values, `str()`
+gives the canonical text back (the text the solver prints and plan files store).
+Plain Python on purpose: the plan audit must not depend on clingo.
+
+States stay frozensets of canonical fluent text: they are hashed millions of
+times while planning, and strings hash faster than nested dataclasses; read
+them through `Hands.of` or `parse_fluent` instead of slicing strings.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass, fields
+from typing import ClassVar, TypeVar
+
+# ---------------------------------------------------------------- terms
+
+
+@dataclass(frozen=True)
+class Term:
+    """A ground term such as `sense(humanAttachingWhere(leg2,top))`."""
+
+    name: str
+    args: tuple[Term, ...] = ()
+
+    def __str__(self) -> str:
+        if not self.args:
+            return self.name
+        return f"{self.name}({','.join(str(a) for a in self.args)})"
+
+
+class TermError(ValueError):
+    """A string that is not a ground term, or not a word of the domain."""
+
+
+_NAME = r"[a-z_][A-Za-z0-9_]*"
+_TOKEN = re.compile(
+    rf"\s*(?:(?P<id>{_NAME})|(?P<num>-?[0-9]+)" r'|(?P<str>"(?:[^"\\]|\\.)*")|(?P<punct>[(),]))'
+)
+_PUNCT = frozenset("(),")
+
+
+def parse_term(text: str) -> Term:
+    """Parse a ground ASP term: constants, integers, strings, nested functions."""
+    tokens: list[str] = []
+    pos = 0
+    text = text.strip()  # _TOKEN skips leading blanks, so only trailing ones remain
+    while pos < len(text):
+        m = _TOKEN.match(text, pos)
+        if m is None:
+            raise TermError(f"cannot parse {text!r} at position {pos}")
+        tokens.append(m.group(m.lastgroup or "punct"))
+        pos = m.end()
+    term, rest = _parse_tokens(text, tokens, 0)
+    if rest != len(tokens):
+        raise TermError(f"cannot parse {text!r}: unexpected {tokens[rest]!r}")
+    return term
+
+
+def _parse_tokens(text: str, tokens: list[str], i: int) -> tuple[Term, int]:
+    if i >= len(tokens) or tokens[i] in _PUNCT:
+        raise TermError(f"cannot parse {text!r}: expected a name")
+    name = tokens[i]
+    i += 1
+    if i >= len(tokens) or tokens[i] != "(":
+        return Term(name), i
+    if not re.fullmatch(_NAME, name):
+        raise TermError(f"cannot parse {text!r}: {name!r} cannot take arguments")
+    args: list[Term] = []
+    i += 1
+    while True:
+        arg, i = _parse_tokens(text, tokens, i)
+        args.append(arg)
+        if i < len(tokens) and tokens[i] == ",":
+            i += 1
+            continue
+        if i < len(tokens) and tokens[i] == ")":
+            return Term(name, tuple(args)), i + 1
+        raise TermError(f"cannot parse {text!r}: expected ',' or ')'")
+
+
+def constants(term: Term) -> tuple[str, ...] | None:
+    """The arguments of `term` as plain strings, or None if any is nested."""
+    if any(a.args for a in term.args):
+        return None
+    return tuple(a.name for a in term.args)
+
+
+# ---------------------------------------------------------------- words
+
+
+@dataclass(frozen=True)
+class _Word:
+    """A predicate with constant arguments; its fields are the arguments in order."""
+
+    name: ClassVar[str]
+
+    @property
+    def arguments(self) -> tuple[str, ...]:
+        return tuple(getattr(self, f.name) for f in fields(self))
+
+    def __str__(self) -> str:
+        args = self.arguments
+        return f"{self.name}({','.join(args)})" if args else self.name
+
+
+W = TypeVar("W", bound=_Word)
+
+
+def _from_term(registry: dict[str, type[W]], term: Term, what: str) -> W:
+    cls = registry.get(term.name)
+    args = constants(term)
+    if cls is None or args is None or len(args) != len(fields(cls)):
+        raise TermError(f"not a {what}: {term}")
+    return cls(*args)
+
+
+# ---------------------------------------------------------------- fluents
+
+
+@dataclass(frozen=True)
+class Attached(_Word):
+    name: ClassVar[str] = "attached"
+    part: str
+    onto: str
+    slot: str
+
+
+@dataclass(frozen=True)
+class Holding(_Word):
+    name: ClassVar[str] = "holding"
+    arm: str
+    part: str
+
+
+@dataclass(frozen=True)
+class HumanFree(_Word):
+    name: ClassVar[str] = "humanFree"
+
+
+@dataclass(frozen=True)
+class HumanHolding(_Word):
+    name: ClassVar[str] = "humanHolding"
+
+
+@dataclass(frozen=True)
+class HumanHoldingPart(_Word):
+    name: ClassVar[str] = "humanHoldingPart"
+    part: str
+
+
+@dataclass(frozen=True)
+class WantToAttach(_Word):
+    name: ClassVar[str] = "wantToAttach"
+    part: str
+    onto: str
+
+
+@dataclass(frozen=True)
+class AcceptToAttach(_Word):
+    name: ClassVar[str] = "acceptToAttach"
+    part: str
+    onto: str
+
+
+@dataclass(frozen=True)
+class RequestedAttach(_Word):
+    name: ClassVar[str] = "requestedAttach"
+    part: str
+    onto: str
+
+
+@dataclass(frozen=True)
+class Reserved(_Word):
+    name: ClassVar[str] = "reserved"
+    part: str
+
+
+@dataclass(frozen=True)
+class Declined(_Word):
+    name: ClassVar[str] = "declined"
+    part: str
+    onto: str
+
+
+@dataclass(frozen=True)
+class KeepsHolding(_Word):
+    name: ClassVar[str] = "keepsHolding"
+    part: str
+
+
+@dataclass(frozen=True)
+class Initiatives(_Word):
+    """initiatives(N): the human has taken the initiative N times."""
+
+    name: ClassVar[str] = "initiatives"
+    count: str
+
+
+Fluent = (
+    Attached | Holding | HumanFree | HumanHolding | HumanHoldingPart | WantToAttach
+    | AcceptToAttach | RequestedAttach | Reserved | Declined | KeepsHolding | Initiatives
+)
+FLUENTS: dict[str, type[Fluent]] = {
+    c.name: c
+    for c in (
+        Attached, Holding, HumanFree, HumanHolding, HumanHoldingPart, WantToAttach,
+        AcceptToAttach, RequestedAttach, Reserved, Declined, KeepsHolding, Initiatives,
+    )
+}  # fmt: skip
+# A task pending with the human: the goal is not reached while one is.
+TASKS = (WantToAttach.name, AcceptToAttach.name, RequestedAttach.name)
+
+State = frozenset[str]  # canonical fluent texts, see the module docstring
+
+
+@functools.lru_cache(maxsize=65536)
+def parse_fluent(text: str) -> Fluent:
+    """The typed fluent of its canonical text; `TermError` if it is not a fluent."""
+    return _from_term(FLUENTS, parse_term(text), "fluent")
+
+
+@dataclass(frozen=True)
+class Hands:
+    """Who holds what and what is attached where, read from a state."""
+
+    holding: dict[str, str]  # arm -> part
+    attached: dict[str, tuple[str, str]]  # part -> (onto, slot)
+    human: frozenset[str]  # parts in the human's hands
+
+    @classmethod
+    def of(cls, state: Iterable[str]) -> Hands:
+        holding: dict[str, str] = {}
+        attached: dict[str, tuple[str, str]] = {}
+        human: set[str] = set()
+        for text in state:
+            f = parse_fluent(text)
+            if isinstance(f, Holding):
+                holding[f.arm] = f.part
+            elif isinstance(f, Attached):
+                attached[f.part] = (f.onto, f.slot)
+            elif isinstance(f, HumanHoldingPart):
+                human.add(f.part)
+        return cls(holding, attached, frozenset(human))
+
+
+# ---------------------------------------------------------------- actions
+
+
+@dataclass(frozen=True)
+class Hold(_Word):
+    name: ClassVar[str] = "hold"
+    kind: ClassVar[str] = "actuation"
+    arm: str
+    part: str
+
+
+@dataclass(frozen=True)
+class Attach(_Word):
+    name: ClassVar[str] = "attach"
+    kind: ClassVar[str] = "actuation"
+    arm: str
+    onto: str
+    slot: str
+
+
+@dataclass(frozen=True)
+class Unhold(_Word):
+    name: ClassVar[str] = "unhold"
+    kind: ClassVar[str] = "actuation"
+    arm: str
+
+
+@dataclass(frozen=True)
+class ConfirmAttach(_Word):
+    name: ClassVar[str] = "confirmAttach"
+    kind: ClassVar[str] = "communication"
+    part: str
+    onto: str
+
+
+@dataclass(frozen=True)
+class AskHelp(_Word):
+    name: ClassVar[str] = "askHelp"
+    kind: ClassVar[str] = "communication"
+    part: str
+    onto: str
+
+
+@dataclass(frozen=True)
+class OfferHelp(_Word):
+    name: ClassVar[str] = "offerHelp"
+    kind: ClassVar[str] = "communication"
+    part: str
+    onto: str
+
+
+@dataclass(frozen=True)
+class RequestToUnhold(_Word):
+    name: ClassVar[str] = "requestToUnhold"
+    kind: ClassVar[str] = "communication"
+    part: str
+
+
+@dataclass(frozen=True)
+class RequestToAttach(_Word):
+    name: ClassVar[str] = "requestToAttach"
+    kind: ClassVar[str] = "communication"
+    part: str
+    onto: str
+
+
+# Sensing actions are `sense(Query)`; each query is its own class, so that the
+# action `sense(humanHolding)` and the fluent `humanHolding` never share a name.
+@dataclass(frozen=True)
+class SenseHumanHolding(_Word):
+    name: ClassVar[str] = "humanHolding"
+    kind: ClassVar[str] = "sensing"
+
+    def __str__(self) -> str:
+        return f"sense({super().__str__()})"
+
+
+@dataclass(frozen=True)
+class SenseHumanHoldingWhichPart(_Word):
+    name: ClassVar[str] = "humanHoldingWhichPart"
+    kind: ClassVar[str] = "sensing"
+
+    def __str__(self) -> str:
+        return f"sense({super().__str__()})"
+
+
+@dataclass(frozen=True)
+class SenseHumanUnholding(_Word):
+    name: ClassVar[str] = "humanUnholding"
+    kind: ClassVar[str] = "sensing"
+    part: str
+
+    def __str__(self) -> str:
+        return f"sense({super().__str__()})"
+
+
+@dataclass(frozen=True)
+class SenseHumanAttachingWhere(_Word):
+    name: ClassVar[str] = "humanAttachingWhere"
+    kind: ClassVar[str] = "sensing"
+    part: str
+    onto: str
+
+    def __str__(self) -> str:
+        return f"sense({super().__str__()})"
+
+
+Actuation = Hold | Attach | Unhold
+Communication = ConfirmAttach | AskHelp | OfferHelp | RequestToUnhold | RequestToAttach
+Sensing = (
+    SenseHumanHolding | SenseHumanHoldingWhichPart | SenseHumanUnholding | SenseHumanAttachingWhere
+)
+Action = Actuation | Communication | Sensing
+
+_ACTIONS: dict[str, type[Actuation | Communication]] = {
+    c.name: c
+    for c in (Hold, Attach, Unhold, ConfirmAttach, AskHelp, OfferHelp, RequestToUnhold,
+              RequestToAttach)
+}  # fmt: skip
+_QUERIES: dict[str, type[Sensing]] = {
+    c.name: c
+    for c in (SenseHumanHolding, SenseHumanHoldingWhichPart, SenseHumanUnholding,
+              SenseHumanAttachingWhere)
+}  # fmt: skip
+ACTION_TYPES: tuple[type[Action], ...] = (*_ACTIONS.values(), *_QUERIES.values())
+# Questions the human answers yes or no; requests are complied with.
+QUESTIONS = (ConfirmAttach.name, AskHelp.name, OfferHelp.name)
+REQUESTS = (RequestToUnhold.name, RequestToAttach.name)
+KINDS = ("actuation", "sensing", "communication")
+
+
+@functools.lru_cache(maxsize=65536)
+def parse_action(text: str) -> Action:
+    """The typed action of its canonical text; `TermError` if it is not an action."""
+    term = parse_term(text)
+    if term.name == "sense" and len(term.args) == 1:
+        return _from_term(_QUERIES, term.args[0], "sensing query")
+    return _from_term(_ACTIONS, term, "action")
+
+
+def action_name(action: Action) -> str:
+    """The predicate of an action as the paper writes it (`sense` for every sensing)."""
+    return "sense" if action.kind == "sensing" else action.name
