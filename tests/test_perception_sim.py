@@ -11,7 +11,7 @@ import pytest
 
 from perception import paper_bench as bench
 from perception.decode import decode_codes
-from perception.frames import Frame, open_source
+from perception.frames import Frame, FrameSource, open_source
 from perception.markers import PartCode
 from perception.pipeline import BenchPerception
 from perception.sim import Degradation, SimulatedCamera, write_video
@@ -82,6 +82,8 @@ def camera() -> Iterator[SimulatedCamera]:
 
 
 def test_every_code_in_view_is_identified(camera: SimulatedCamera) -> None:
+    assert isinstance(camera, FrameSource)
+    assert camera.size == (1024, 1024)
     _reset(camera)
     detections = decode_codes(camera.render())
     parts = {d.code.part_id for d in detections if isinstance(d.code, PartCode)}
