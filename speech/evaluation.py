@@ -2,7 +2,7 @@
 
 Answers: every answer phrase spoken by seeded `SimulatedVoice`s (voice
 variant, speed and pitch drawn per clip), half of them with white noise at
-10-20 dB SNR. Non-answers: silence, noise of several kinds and levels, and
+15-25 dB SNR. Non-answers: silence, noise of several kinds and levels, and
 other Korean words and sentences, none of them in the recogniser's distractor
 list (so the score is not that of a grammar that already knows the test).
 """
@@ -19,7 +19,7 @@ from speech.recognition import Heard, Meaning
 from speech.sources import SimulatedVoice
 
 KOREAN_YES = ("네", "예", "응", "그래요", "좋아요")
-KOREAN_NO = ("아니요", "아니", "아니오", "싫어요", "안 돼요")
+KOREAN_NO = ("아니요", "아니", "아니오", "싫어요", "아냐")
 KOREAN_OTHER = (
     "안녕하세요", "다리를 잡아 주세요", "잠깐만요", "모르겠어요", "오늘 날씨가 좋네요",
     "나사를 주세요", "왼쪽으로", "다시 말해 주세요", "글쎄요", "뭐라고요",
@@ -100,7 +100,7 @@ def _noise_clips(seed: int) -> list[Trial]:
 def korean_trials(per_phrase: int = 8, seed: int = 7) -> list[Trial]:
     """Answers (`per_phrase` renderings of each, half noisy) and non-answers."""
     clean = SimulatedVoice("ko", seed=seed)
-    noisy = [SimulatedVoice("ko", seed=seed + snr, noise_snr_db=snr) for snr in (10, 15, 20)]
+    noisy = [SimulatedVoice("ko", seed=seed + snr, noise_snr_db=snr) for snr in (15, 20, 25)]
     trials: list[Trial] = []
     for meaning, phrases in (("yes", KOREAN_YES), ("no", KOREAN_NO)):
         for phrase in phrases:

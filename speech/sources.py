@@ -92,8 +92,8 @@ class SimulatedVoice:
         voice, speed, pitch = self.language.espeak_voice, 175, 50
         if self._random is not None:
             voice += self._random.choice(self.language.espeak_variants)
-            speed = self._random.randint(130, 220)
-            pitch = self._random.randint(25, 80)
+            speed = self._random.randint(140, 200)
+            pitch = self._random.randint(30, 75)
         speech = espeak_samples(text, voice, speed, pitch).astype(np.float64)
         pause = np.zeros(int(self.pause_s * RATE))
         signal = np.concatenate([pause, speech, pause])
@@ -102,7 +102,8 @@ class SimulatedVoice:
             sigma = np.sqrt(power / 10 ** (self.noise_snr_db / 10))
             signal = signal + self._noise.normal(0.0, sigma, signal.size)
         samples = np.clip(np.round(signal), -32768, 32767).astype(np.int16)
-        origin = f"simulated:{voice}:s{speed}:p{pitch}:{text}"
+        noise = "clean" if self.noise_snr_db is None else f"snr{self.noise_snr_db:g}"
+        origin = f"simulated:{voice}:s{speed}:p{pitch}:{noise}:{text}"
         return Recording(samples=samples, rate=RATE, origin=origin)
 
     def say(self, answer_text: str) -> Recording:

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from speech.audio import Samples
 
@@ -24,12 +25,13 @@ class Activity:
     speech_s: float
     floor_db: float
     peak_db: float
+    active: npt.NDArray[np.bool_]  # one flag per 20 ms frame
 
     def is_speech(self, min_speech_s: float) -> bool:
         return self.speech_s >= min_speech_s
 
 
-def frame_levels(samples: Samples, rate: int) -> np.ndarray:
+def frame_levels(samples: Samples, rate: int) -> npt.NDArray[np.float64]:
     """dBFS level of each 20 ms frame."""
     size = max(1, int(FRAME_S * rate))
     count = len(samples) // size
@@ -47,5 +49,8 @@ def activity(
     floor = float(np.percentile(levels, 10))
     active = (levels > floor + margin_db) & (levels > min_db)
     return Activity(
-        speech_s=float(active.sum()) * FRAME_S, floor_db=floor, peak_db=float(levels.max())
+        speech_s=float(active.sum()) * FRAME_S,
+        floor_db=floor,
+        peak_db=float(levels.max()),
+        active=active,
     )
