@@ -184,3 +184,24 @@ def test_written_video_replays_like_the_live_source(tmp_path: Path) -> None:
     # The move shows after the track's and the estimate's hysteresis (3 frames each).
     assert replayed[-1].world.human.holding == ("leg2",)
     assert replayed[2].world.human.hands_free
+
+
+def test_a_one_frame_jump_does_not_move_the_track() -> None:
+    with SimulatedCamera(bench.scene()) as cam:
+        perception = BenchPerception(cam.intrinsics, bench.layout())
+        for _ in range(2):
+            perception.process(cam.read())
+        home = perception.tracker.tracks()["foot2"].position
+        cam.move("foot2", (1.20, -0.40, bench.resting("foot2")[2]))  # seen elsewhere once
+        glitch = perception.process(cam.read())
+        assert any(s.part_id == "foot2" for s in glitch.observation.sightings)
+        assert math.dist(perception.tracker.tracks()["foot2"].position, home) < 0.01
+        assert glitch.world.parts["foot2"].placement == ALL_ON_BENCH["foot2"]
+        cam.move("foot2", bench.resting("foot2"))
+        perception.process(cam.read())
+        # A real move: three agreeing sightings move the track, three more the estimate.
+        cam.move("foot2", (1.20, -0.40, bench.resting("foot2")[2]))
+        worlds = [perception.process(cam.read()).world for _ in range(6)]
+        assert worlds[-1].parts["foot2"].placement == Placement(ON, region="humanOnly")
+        assert worlds[0].parts["foot2"].placement == ALL_ON_BENCH["foot2"]
+        assert not worlds[-1].stable
