@@ -99,8 +99,9 @@ class Degradation:
 
 # Default camera: straight down over the middle of the bench and the human's hands
 # (x 0.30..1.65), 1.45 m above the bench, 60 deg across 1024 px (square image): the
-# whole bench and the hands are in view and a 10 cm code spans ~60 px. Measured in
-# perception.bench: all codes decode at this placement.
+# whole bench and the hands are in view and a 10 cm code spans ~62 px. Measured with
+# jitter, blur, noise and gain: 99 % of the codes decode at 1024 px, 76 % at 896, 28 %
+# at 768; a frame renders in ~0.15 s. perception.bench maps distance and tilt.
 DEFAULT_CAMERA = CameraPlacement(eye=(0.975, 0.0, 1.40), target=(0.975, 0.0, -0.05))
 DEFAULT_SIZE = (1024, 1024)
 DEFAULT_HFOV_DEG = 60.0
