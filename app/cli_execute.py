@@ -11,7 +11,6 @@ from collections.abc import Callable
 from datetime import date
 from pathlib import Path
 from types import FrameType
-from typing import Any
 
 from app.execution import RESULTS, ExecutionEvent, Executor
 from app.outcomes import (
@@ -25,7 +24,7 @@ from app.outcomes import (
 )
 from app.store import SessionStore, UnknownSession, iso
 from planner.hcp import DeadEnd
-from planner.plan import FORMAT
+from planner.plan import Plan, PlanFormatError
 from planner.planning import plan_scenario
 from planner.scenario import load_scenario
 
@@ -85,31 +84,19 @@ def _guarded(handler: Handler) -> Handler:
 # -- execute ------------------------------------------------------------------
 
 
-def load_plan(target: str) -> dict[str, Any]:
-    """The plan document of a plan file, or a fresh plan of a scenario file."""
+def load_plan(target: str) -> Plan:
+    """The plan of a plan file, or a fresh plan of a scenario file."""
     path = Path(target)
     if path.suffix == ".json":
         try:
-            doc = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise BadInput(f"{target}: cannot read plan: {err}") from err
-        if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-            raise BadInput(f"{target}: not a {FORMAT} document")
-        return doc
+            return Plan.read(path)
+        except PlanFormatError as err:
+            raise BadInput(str(err)) from err
     scenario = load_scenario(path)
-    return plan_scenario(scenario, workers=1).plan.doc
+    return plan_scenario(scenario, workers=1).plan
 
 
-def plan_labels(plan_doc: dict[str, Any]) -> set[str]:
-    return {
-        c["outcome"]
-        for node in plan_doc["nodes"].values()
-        for c in node.get("children", [])
-        if c["outcome"] is not None
-    }
-
-
-def make_source(spec: str, seed: int | None, plan_doc: dict[str, Any]) -> OutcomeSource:
+def make_source(spec: str, seed: int | None, plan: Plan) -> OutcomeSource:
     """The source for `--responses`; each falls back to the expected outcome."""
     primary: OutcomeSource
     if spec == "click":
@@ -118,7 +105,7 @@ def make_source(spec: str, seed: int | None, plan_doc: dict[str, Any]) -> Outcom
         primary = RandomSource(seed)
     elif spec.startswith("scripted:") and spec != "scripted:":
         scripted = ScriptedSource(spec[len("scripted:") :])
-        scripted.check_labels(plan_labels(plan_doc))
+        scripted.check_labels(plan.outcome_labels())
         primary = scripted
     else:
         raise BadInput(f"--responses {spec}: expected click, random or scripted:FILE")
@@ -152,7 +139,7 @@ def _execute(args: argparse.Namespace) -> int:
     if args.seed is not None and args.responses != "random":
         raise BadInput("--seed goes with --responses random")
     try:
-        plan_doc = load_plan(args.target)
+        plan = load_plan(args.target)
     except DeadEnd as err:
         print(f"{args.target}: no plan: {err}", file=sys.stderr)
         return 1
@@ -160,15 +147,15 @@ def _execute(args: argparse.Namespace) -> int:
     if args.responses == "random" and seed is None:
         seed = secrets.randbelow(2**31)
         print(f"seed {seed}", file=sys.stderr)
-    source = make_source(args.responses, seed, plan_doc)
+    source = make_source(args.responses, seed, plan)
     note = args.note
     if args.responses == "random":
         note = f"seed {seed}" + (f"; {note}" if note else "")
     with SessionStore(args.data_dir) as store:
-        session_id = store.start(plan_doc, note=note)
+        session_id = store.start(plan, note=note)
         print(f"session {session_id}", flush=True)
         executor = Executor(
-            plan_doc, source, [store.recorder(session_id), _print_event], args.step_delay
+            plan, source, [store.recorder(session_id), _print_event], args.step_delay
         )
 
         def stop(signum: int, frame: FrameType | None) -> None:

@@ -1,4 +1,4 @@
-"""Running a `tandem-plan/1` document: one branch, from the root to a leaf.
+"""Running a plan: one branch, from the root to a leaf.
 
 The `Executor` walks the plan node by node. An actuation node emits a motion
 event (the arm's joint path); a communication node without outcomes emits
@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Literal
 
 from app.outcomes import Outcome, OutcomeError, OutcomeSource, describe
+from planner.plan import Motion, Plan, PlanNode
 
 Result = Literal["goal", "aborted", "interrupted", "dead-end"]
 RESULTS: tuple[Result, ...] = ("goal", "aborted", "interrupted", "dead-end")
@@ -43,7 +44,7 @@ class ExecutionEvent:
     source: str | None = None
     confidence: float | None = None
     text: str | None = None
-    motion: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
+    motion: Motion | None = field(default=None, compare=False, repr=False)
 
 
 Listener = Callable[[ExecutionEvent], None]
@@ -54,7 +55,7 @@ class _Aborted(Exception):
 
 
 class Executor:
-    """Walks `plan_doc` from its root, asking `source` at every branching node.
+    """Walks `plan` from its root, asking `source` at every branching node.
 
     `step_delay` seconds pass after every step but the last (the time a motion
     or a sentence takes). Controls (`pause`, `resume`, `step`, `abort`) are
@@ -63,14 +64,14 @@ class Executor:
 
     def __init__(
         self,
-        plan_doc: Mapping[str, Any],
+        plan: Plan,
         source: OutcomeSource,
         listeners: Iterable[Listener] = (),
         step_delay: float = 0.0,
         max_steps: int = 10_000,
     ) -> None:
-        self.plan = plan_doc
-        self.nodes: Mapping[str, Mapping[str, Any]] = plan_doc["nodes"]
+        self.plan = plan
+        self.nodes = plan.nodes
         self.source = source
         self.listeners = list(listeners)
         self.step_delay = step_delay
@@ -162,7 +163,7 @@ class Executor:
         return self.result
 
     def _walk(self) -> Result:
-        node_id: str = self.plan["root"]
+        node_id = self.plan.root
         for _ in range(self.max_steps):
             try:
                 self._gate()
@@ -172,33 +173,33 @@ class Executor:
             if node is None:
                 return "dead-end"
             self.current = node_id
-            if node["kind"] == "goal":
+            if node.kind == "goal":
                 self._emit(node_id, node, text="The table is assembled.")
                 return "goal"
-            children = node.get("children") or []
+            children = node.children
             if not children:
                 self._emit(node_id, node, text="no way on from here")
                 return "dead-end"
-            options = [c["outcome"] for c in children if c["outcome"] is not None]
+            options = node.outcomes
             if not options:
-                text = node.get("say") if node["kind"] == "communication" else None
-                self._emit(node_id, node, text=text, motion=node.get("motion"))
-                next_id: str = children[0]["node"]
+                text = node.say if node.kind == "communication" else None
+                self._emit(node_id, node, text=text, motion=node.motion)
+                next_id = children[0].node
             else:
                 try:
                     outcome = self._ask(node_id, node, options)
                 except _Aborted:
                     return "aborted"
-                text = node.get("say") if node["kind"] == "communication" else outcome.text
+                text = node.say if node.kind == "communication" else outcome.text
                 self._emit(
                     node_id,
                     node,
                     outcome=outcome.label,
                     source=outcome.source,
                     confidence=outcome.confidence,
-                    text=text or describe(node.get("action"), outcome.label),
+                    text=text or describe(node.action, outcome.label),
                 )
-                next_id = next(c["node"] for c in children if c["outcome"] == outcome.label)
+                next_id = next(c.node for c in children if c.outcome == outcome.label)
             try:
                 self._sleep(self.step_delay)
             except _Aborted:
@@ -233,7 +234,7 @@ class Executor:
                 self._cond.wait(left)
             raise _Aborted
 
-    def _ask(self, node_id: str, node: Mapping[str, Any], options: list[str]) -> Outcome:
+    def _ask(self, node_id: str, node: PlanNode, options: list[str]) -> Outcome:
         """The source's outcome; asks again while it has no answer, until aborted."""
         while True:
             if self.aborted:
@@ -245,27 +246,27 @@ class Executor:
                 continue
             if outcome.label not in options:
                 raise OutcomeError(
-                    f"'{outcome.label}' is not an outcome of {node.get('action')} at {node_id}"
+                    f"'{outcome.label}' is not an outcome of {node.action} at {node_id}"
                 )
             return outcome
 
     def _emit(
         self,
         node_id: str,
-        node: Mapping[str, Any],
+        node: PlanNode,
         *,
         outcome: str | None = None,
         source: str | None = None,
         confidence: float | None = None,
         text: str | None = None,
-        motion: Mapping[str, Any] | None = None,
+        motion: Motion | None = None,
     ) -> None:
         event = ExecutionEvent(
             seq=len(self.events),
             time=time.time(),
             node=node_id,
-            action=node.get("action"),
-            kind=node["kind"],
+            action=None if node.action is None else str(node.action),
+            kind=node.kind,
             outcome=outcome,
             source=source,
             confidence=confidence,

@@ -13,14 +13,22 @@ from __future__ import annotations
 
 import random
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any, Protocol
+from typing import IO, Protocol
 
-import clingo
+from planner.plan import PlanNode
+from planner.vocabulary import (
+    QUESTIONS,
+    Action,
+    SenseHumanAttachingWhere,
+    SenseHumanHolding,
+    SenseHumanHoldingWhichPart,
+    SenseHumanUnholding,
+)
 
-Node = Mapping[str, Any]
+Node = PlanNode
 
 
 @dataclass(frozen=True)
@@ -47,47 +55,31 @@ class ScriptError(OutcomeError):
     """A scripted response file is unreadable or names a label the plan does not have."""
 
 
-def _parse(action: str) -> tuple[str, list[str]]:
-    try:
-        term = clingo.parse_term(action)
-    except RuntimeError:
-        return action, []
-    return term.name, [str(a) for a in term.arguments]
-
-
-def describe(action: str | None, label: str | None) -> str:
+def describe(action: Action | None, label: str | None) -> str:
     """Words for the outcome `label` of `action`, for buttons and logs."""
     if label is None:
         return "done"
-    if not action:
+    if action is None:
         return label
-    name, args = _parse(action)
-    if name == "sense" and args:
-        return _describe_sensing(args[0], label)
-    if name in ("askHelp", "offerHelp", "confirmAttach") and label in ("yes", "no"):
+    match action:
+        case SenseHumanHolding():
+            return {"yes": "Human holds a part", "no": "Human's hands are free"}.get(label, label)
+        case SenseHumanHoldingWhichPart():
+            return f"Human holds {label}"
+        case SenseHumanUnholding(part):
+            words = {"yes": f"Human puts {part} down", "no": f"Human keeps holding {part}"}
+            return words.get(label, label)
+        case SenseHumanAttachingWhere(part, onto):
+            return f"Human attaches {part} to {onto} at {label}"
+    if action.name in QUESTIONS and label in ("yes", "no"):
         return f"Human says {label}"
     return f"{action}: {label}"
-
-
-def _describe_sensing(query: str, label: str) -> str:
-    what, args = _parse(query)
-    if what == "humanHolding":
-        return {"yes": "Human holds a part", "no": "Human's hands are free"}.get(label, label)
-    if what == "humanHoldingWhichPart":
-        return f"Human holds {label}"
-    if what == "humanUnholding" and len(args) == 1:
-        part = args[0]
-        words = {"yes": f"Human puts {part} down", "no": f"Human keeps holding {part}"}
-        return words.get(label, label)
-    if what == "humanAttachingWhere" and len(args) == 2:
-        return f"Human attaches {args[0]} to {args[1]} at {label}"
-    return f"{query}: {label}"
 
 
 def _check(label: str, options: Sequence[str], node_id: str, node: Node) -> None:
     if label not in options:
         raise OutcomeError(
-            f"'{label}' is not an outcome of {node.get('action')} at {node_id} "
+            f"'{label}' is not an outcome of {node.action} at {node_id} "
             f"(one of: {', '.join(options)})"
         )
 
@@ -100,9 +92,9 @@ class ExpectedSource:
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         if not options:
             return None
-        expected = node.get("expected")
+        expected = node.expected
         label = expected if isinstance(expected, str) and expected in options else options[0]
-        return Outcome(label, self.name, None, describe(node.get("action"), label))
+        return Outcome(label, self.name, None, describe(node.action, label))
 
 
 class RandomSource:
@@ -120,7 +112,7 @@ class RandomSource:
             return None
         with self._lock:
             label = self._rng.choice(list(options))
-        return Outcome(label, self.name, 1.0 / len(options), describe(node.get("action"), label))
+        return Outcome(label, self.name, 1.0 / len(options), describe(node.action, label))
 
 
 @dataclass(frozen=True)
@@ -172,9 +164,9 @@ class ScriptedSource:
         if line.label not in options:
             raise ScriptError(
                 f"{self.path}:{line.number}: '{line.label}' is not an outcome of "
-                f"{node.get('action')} at {node_id} (one of: {', '.join(options)})"
+                f"{node.action} at {node_id} (one of: {', '.join(options)})"
             )
-        return Outcome(line.label, self.name, 1.0, describe(node.get("action"), line.label))
+        return Outcome(line.label, self.name, 1.0, describe(node.action, line.label))
 
 
 def parse_script(text: str) -> list[ScriptLine]:
@@ -191,7 +183,7 @@ class Offer:
     """A question waiting for a click: the node and its outcome labels, with words."""
 
     node_id: str
-    action: str | None
+    action: Action | None
     options: tuple[str, ...]
     words: tuple[str, ...]
 
@@ -200,27 +192,39 @@ class ClickSource:
     """Outcomes clicked in the dashboard.
 
     `choose` (the executor's thread) offers the node's options and waits up to
-    `timeout` seconds for `click(label)` from another thread; `pending()` is
-    what the dashboard shows as buttons. `interrupt()` makes a waiting (or the
-    next) `choose` return None at once, so an aborted execution is not stuck.
+    `timeout` seconds for `click(label)` from another thread. `on_offer(offer)`
+    is called when a question starts waiting and `on_offer(None)` when it is
+    answered or given up, so a panel draws its buttons without polling;
+    `pending()` is the question waiting now. `interrupt()` makes a waiting (or
+    the next) `choose` return None at once, so an aborted execution is not stuck.
     """
 
     name = "click"
 
-    def __init__(self, timeout: float | None = 1.0) -> None:
+    def __init__(
+        self,
+        timeout: float | None = 1.0,
+        on_offer: Callable[[Offer | None], None] | None = None,
+    ) -> None:
         self.timeout = timeout
+        self.on_offer = on_offer
         self._cond = threading.Condition()
         self._offer: Offer | None = None
         self._clicked: str | None = None
         self._interrupted = False
 
-    def offer(self, node_id: str, options: Sequence[str], action: str | None = None) -> Offer:
+    def offer(self, node_id: str, options: Sequence[str], action: Action | None = None) -> Offer:
         with self._cond:
-            if self._offer is None or self._offer.node_id != node_id:
+            fresh = self._offer is None or self._offer.node_id != node_id
+            if fresh:
                 words = tuple(describe(action, o) for o in options)
                 self._offer = Offer(node_id, action, tuple(options), words)
                 self._clicked = None
-            return self._offer
+            offer = self._offer
+            assert offer is not None
+        if fresh and self.on_offer is not None:
+            self.on_offer(offer)  # outside the lock: the panel may call click() meanwhile
+        return offer
 
     def pending(self) -> Offer | None:
         with self._cond:
@@ -244,9 +248,9 @@ class ClickSource:
             self._cond.notify_all()
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
-        action = node.get("action")
+        action = node.action
+        self.offer(node_id, options, action)
         with self._cond:
-            self.offer(node_id, options, action)
             self._cond.wait_for(
                 lambda: self._clicked is not None or self._interrupted, self.timeout
             )
@@ -257,6 +261,8 @@ class ClickSource:
                 return None
             self._offer = None
             self._clicked = None
+        if self.on_offer is not None:
+            self.on_offer(None)
         return Outcome(label, self.name, 1.0, describe(action, label))
 
 
@@ -274,9 +280,9 @@ class ConsoleSource:
         self.writer = writer
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
-        action = node.get("action")
-        if node.get("say"):
-            print(f'  robot: "{node["say"]}"', file=self.writer)
+        action = node.action
+        if node.say:
+            print(f'  robot: "{node.say}"', file=self.writer)
         print(f"{node_id} {action}:", file=self.writer)
         for i, label in enumerate(options, 1):
             print(f"  {i}) {describe(action, label)}", file=self.writer)

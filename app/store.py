@@ -23,9 +23,16 @@ from pathlib import Path
 from typing import Any
 
 from sqlite_utils import Database
+from sqlite_utils.db import Table
 
 from app.execution import ExecutionEvent
 from app.processes import boot_id, owner_alive
+from planner.plan import Plan
+
+# Stored plans whose hash is remembered, so the same plan object is not
+# serialised again (large plans take tens of milliseconds); bounded, so a
+# long-running dashboard does not keep every plan it ever executed.
+_KNOWN_PLANS = 8
 
 DB_NAME = "sessions.db"
 EXPORT_FORMAT = "tandem-session/1"
@@ -72,42 +79,39 @@ def default_data_dir() -> Path:
     return Path.home() / ".local" / "share" / "tandem"
 
 
-def canonical_json(plan_doc: Mapping[str, Any]) -> str:
+def canonical_json(plan: Plan | Mapping[str, Any]) -> str:
     """The plan as canonical JSON: sorted keys, no spaces, UTF-8 as is."""
-    return json.dumps(plan_doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    doc = plan.to_json() if isinstance(plan, Plan) else plan
+    return json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
 
 
-def plan_hash(plan_doc: Mapping[str, Any]) -> str:
+def plan_hash(plan: Plan | Mapping[str, Any]) -> str:
     """sha256 of the canonical JSON of the plan."""
-    return hashlib.sha256(canonical_json(plan_doc).encode("utf-8")).hexdigest()
+    return hashlib.sha256(canonical_json(plan).encode("utf-8")).hexdigest()
 
 
 def is_plan_path(
-    plan_doc: Mapping[str, Any], path: Sequence[tuple[str, str | None]], *, complete: bool = True
+    plan: Plan, path: Sequence[tuple[str, str | None]], *, complete: bool = True
 ) -> bool:
     """Whether `path` [(node, outcome)] follows the plan from its root.
 
     `complete`: it must end at a goal leaf; otherwise a prefix is enough.
     """
-    nodes: Mapping[str, Mapping[str, Any]] = plan_doc["nodes"]
+    nodes = plan.nodes
     if not path:
         return not complete
-    if path[0][0] != plan_doc["root"]:
+    if path[0][0] != plan.root:
         return False
     for (node_id, outcome), (next_id, _) in zip(path, path[1:], strict=False):
         node = nodes.get(node_id)
-        if node is None:
-            return False
-        if not any(
-            c["outcome"] == outcome and c["node"] == next_id for c in node.get("children", [])
-        ):
+        if node is None or node.child(outcome) != next_id:
             return False
     last_id, last_outcome = path[-1]
     last = nodes.get(last_id)
     if last is None:
         return False
     if complete:
-        return last["kind"] == "goal" and last_outcome is None and not last.get("children")
+        return last.kind == "goal" and last_outcome is None and not last.children
     return True
 
 
@@ -121,9 +125,9 @@ class SessionStore:
         conn = sqlite3.connect(str(self.db_path), check_same_thread=False, timeout=30)
         self.db = Database(conn)
         self._lock = threading.RLock()
-        self._plans: dict[int, tuple[Mapping[str, Any], str]] = {}
+        self._plans: dict[int, tuple[Plan, str]] = {}
         with self._lock:
-            self.db.enable_wal()
+            self.db.execute("PRAGMA journal_mode=WAL")
             # In WAL mode NORMAL still keeps every commit across a killed process.
             self.db.execute("PRAGMA synchronous=NORMAL")
             self._create()
@@ -131,7 +135,7 @@ class SessionStore:
 
     def close(self) -> None:
         with self._lock:
-            self.db.close()
+            self.db.conn.close()
 
     def __enter__(self) -> SessionStore:
         return self
@@ -139,9 +143,12 @@ class SessionStore:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _table(self, name: str) -> Table:
+        return Table(self.db, name)
+
     def _create(self) -> None:
-        self.db.table("plans").create({"hash": str, "doc": str}, pk="hash", if_not_exists=True)
-        self.db.table("sessions").create(
+        self._table("plans").create({"hash": str, "doc": str}, pk="hash", if_not_exists=True)
+        self._table("sessions").create(
             {
                 "id": int,
                 "scenario": str,
@@ -158,7 +165,7 @@ class SessionStore:
             foreign_keys=[("plan_hash", "plans", "hash")],
             if_not_exists=True,
         )
-        self.db.table("events").create(
+        self._table("events").create(
             {
                 "session_id": int,
                 "seq": int,
@@ -175,39 +182,40 @@ class SessionStore:
             foreign_keys=[("session_id", "sessions", "id")],
             if_not_exists=True,
         )
-        self.db.table("sessions").create_index(["started"], if_not_exists=True)
+        self._table("sessions").create_index(["started"], if_not_exists=True)
 
     # -- writing ----------------------------------------------------------------
 
-    def add_plan(self, plan_doc: Mapping[str, Any]) -> str:
+    def add_plan(self, plan: Plan) -> str:
         """Stores the plan once; its hash.
 
-        A plan document is taken as immutable once stored: the same object
-        is not serialised again (large plans take tens of milliseconds).
+        A plan is taken as immutable once stored: the same object is not
+        serialised again while it is among the last few stored.
         """
         with self._lock:
-            known = self._plans.get(id(plan_doc))
-            if known is not None and known[0] is plan_doc:
+            known = self._plans.get(id(plan))
+            if known is not None and known[0] is plan:
                 return known[1]
-            text = canonical_json(plan_doc)
+            text = canonical_json(plan)
             digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
-            self.db.table("plans").insert({"hash": digest, "doc": text}, ignore=True)
-            self._plans[id(plan_doc)] = (plan_doc, digest)
+            self._table("plans").insert({"hash": digest, "doc": text}, ignore=True)
+            self._plans[id(plan)] = (plan, digest)
+            while len(self._plans) > _KNOWN_PLANS:
+                del self._plans[next(iter(self._plans))]
         return digest
 
     def start(
         self,
-        plan_doc: Mapping[str, Any],
+        plan: Plan,
         *,
         note: str | None = None,
         pid: int | None = None,
     ) -> int:
-        """A new session of `plan_doc`, owned by this process (or `pid`); its id."""
-        digest = self.add_plan(plan_doc)
-        scenario = plan_doc.get("scenario") or {}
+        """A new session of `plan`, owned by this process (or `pid`); its id."""
+        digest = self.add_plan(plan)
         row = {
-            "scenario": scenario.get("name"),
-            "scenario_sha256": scenario.get("sha256"),
+            "scenario": plan.scenario.name,
+            "scenario_sha256": plan.scenario.sha256,
             "plan_hash": digest,
             "started": time.time(),
             "ended": None,
@@ -217,7 +225,7 @@ class SessionStore:
             "host_boot": boot_id() or socket.gethostname(),
         }
         with self._lock:
-            table = self.db.table("sessions").insert(row)
+            table = self._table("sessions").insert(row)
             session_id = table.last_pk
         assert isinstance(session_id, int)
         return session_id
@@ -237,7 +245,7 @@ class SessionStore:
             "text": event.text,
         }
         with self._lock:
-            self.db.table("events").insert(row)
+            self._table("events").insert(row)
 
     def recorder(self, session_id: int) -> Callable[[ExecutionEvent], None]:
         """A listener for `Executor` that stores each event of `session_id`."""
@@ -245,7 +253,7 @@ class SessionStore:
 
     def finish(self, session_id: int, result: str, ended: float | None = None) -> None:
         with self._lock:
-            self.db.table("sessions").update(
+            self._table("sessions").update(
                 session_id, {"result": result, "ended": time.time() if ended is None else ended}
             )
 
@@ -253,7 +261,7 @@ class SessionStore:
         """Ends, as "interrupted", the open sessions whose process is gone; their ids."""
         marked: list[int] = []
         with self._lock:
-            rows = list(self.db.table("sessions").rows_where("ended is null", select="*"))
+            rows = list(self._table("sessions").rows_where("ended is null", select="*"))
             for row in rows:
                 if owner_alive(row["pid"], row["started"], row["host_boot"]):
                     continue
@@ -313,7 +321,7 @@ class SessionStore:
         self.get(session_id)
         with self._lock:
             rows = list(
-                self.db.table("events").rows_where(
+                self._table("events").rows_where(
                     "session_id = ?", [session_id], order_by="seq", select="*"
                 )
             )
@@ -332,13 +340,17 @@ class SessionStore:
             for r in rows
         ]
 
-    def plan(self, digest: str) -> dict[str, Any]:
+    def plan_doc(self, digest: str) -> dict[str, Any]:
+        """The stored plan's JSON document, as stored."""
         with self._lock:
             row = self.db.execute("select doc from plans where hash = ?", [digest]).fetchone()
         if row is None:
             raise KeyError(f"no plan {digest}")
         doc: dict[str, Any] = json.loads(row[0])
         return doc
+
+    def plan(self, digest: str) -> Plan:
+        return Plan.from_json(self.plan_doc(digest), f"stored plan {digest[:12]}")
 
     def path(self, session_id: int) -> list[tuple[str, str | None]]:
         """The nodes the session went through, with the outcome taken at each."""
@@ -356,7 +368,7 @@ class SessionStore:
             "format": EXPORT_FORMAT,
             "session": record.to_json(),
             "events": events,
-            "plan": self.plan(record.plan_hash),
+            "plan": self.plan_doc(record.plan_hash),
         }
 
 

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from planner.plan import Plan
 from planner.planning import plan_scenario
 from planner.scenario import load_scenario
 
@@ -23,17 +24,21 @@ def _planned(path: str) -> str:
     return json.dumps(plan_scenario(load_scenario(path), workers=1).plan.to_json())
 
 
-def plan_of(path: Path) -> dict[str, Any]:
-    """A fresh copy of the plan of scenario `path` (planned once, then cached)."""
+def plan_doc(path: Path) -> dict[str, Any]:
+    """A fresh copy of the JSON of the plan of scenario `path` (planned once, then cached)."""
     doc: dict[str, Any] = json.loads(_planned(str(path)))
     return doc
 
 
-def paper_plan(name: str) -> dict[str, Any]:
+def plan_of(path: Path) -> Plan:
+    return Plan.from_json(plan_doc(path))
+
+
+def paper_plan(name: str) -> Plan:
     return plan_of(SCENARIOS / "paper" / f"{name}.toml")
 
 
-def default_plan() -> dict[str, Any]:
+def default_plan() -> Plan:
     return plan_of(SCENARIOS / "default.toml")
 
 

@@ -21,7 +21,7 @@ from tests.plan_fixtures import ROOT, default_plan, paper_plan, tandem, tandem_c
 @pytest.fixture(scope="module")
 def plan_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("plans") / "default.json"
-    path.write_text(json.dumps(default_plan()))
+    path.write_text(json.dumps(default_plan().to_json()))
     return path
 
 
@@ -55,7 +55,7 @@ def one_error_line(done: subprocess.CompletedProcess[str]) -> str:
 def test_random_executions_of_a_paper_plan(tmp_path: Path, env: dict[str, str]) -> None:
     doc = paper_plan("paper-03")
     plan_path = tmp_path / "paper-03.json"
-    plan_path.write_text(json.dumps(doc))
+    plan_path.write_text(json.dumps(doc.to_json()))
     ids = []
     for seed in range(3):
         done = tandem(
@@ -102,14 +102,14 @@ def test_click_without_input_takes_the_expected_outcomes(
     sid = session_id(done.stdout)
     with SessionStore(env["TANDEM_DATA_DIR"]) as store:
         steps = [(e.action, e.outcome) for e in store.events(sid) if e.kind != "goal"]
-    assert steps == Plan(json.loads(plan_file.read_text())).first_branch()
+    assert steps == Plan.read(plan_file).first_branch()
 
 
 def test_sigkill_keeps_every_event_and_the_session_reads_interrupted(
     plan_file: Path, env: dict[str, str], tmp_path: Path
 ) -> None:
     doc = json.loads(plan_file.read_text())
-    labels = [o for _, o in Plan(doc).first_branch() if o is not None]
+    labels = [o for _, o in Plan.from_json(doc).first_branch() if o is not None]
     script = tmp_path / "answers.txt"
     script.write_text("# the hoped-for branch\n" + "\n".join(labels) + "\n")
     command = [
@@ -154,8 +154,8 @@ def test_sigkill_keeps_every_event_and_the_session_reads_interrupted(
     assert done.returncode == 0, done.stderr
     exported = json.loads(export.read_text())
     path = [(e["node"], e["outcome"]) for e in exported["events"]]
-    assert is_plan_path(exported["plan"], path, complete=False)
-    assert not is_plan_path(exported["plan"], path)
+    assert is_plan_path(Plan.from_json(exported["plan"]), path, complete=False)
+    assert not is_plan_path(Plan.from_json(exported["plan"]), path)
     shown = tandem("sessions", "show", str(sid), env=env)
     assert shown.returncode == 0 and "interrupted" in shown.stdout.splitlines()[0]
 
@@ -253,4 +253,5 @@ def test_export_round_trip(plan_file: Path, env: dict[str, str], tmp_path: Path)
     with SessionStore(env["TANDEM_DATA_DIR"]) as store:
         assert exported == json.loads(json.dumps(store.export(sid)))
     assert exported["plan"] == json.loads(plan_file.read_text())
-    assert is_plan_path(exported["plan"], [(e["node"], e["outcome"]) for e in exported["events"]])
+    path = [(e["node"], e["outcome"]) for e in exported["events"]]
+    assert is_plan_path(Plan.from_json(exported["plan"]), path)

@@ -70,8 +70,8 @@ def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
 
 def plan_shown(dashboard: Dashboard) -> Callable[[], bool]:
     def shown() -> bool:
-        doc = dashboard.doc
-        return doc is not None and "stats" in doc and dashboard.selected == doc["root"]
+        plan = dashboard.plan
+        return plan is not None and not plan.partial and dashboard.selected == plan.root
 
     return shown
 
@@ -117,13 +117,13 @@ def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Das
     # The job reports "done" just before the page shows the plan and selects its root.
     wait_for(plan_shown(dashboard))
     assert dashboard.tree.current is not None and len(dashboard.tree.current.positions) >= 10
-    assert dashboard.doc is not None and dashboard.selected == dashboard.doc["root"]
+    assert dashboard.plan is not None and dashboard.selected == dashboard.plan.root
     page.get_by_text("statistic").wait_for()
     time.sleep(2.0)
     shot(page, "plan-tree")
     # Go to the root's child with the panel, aim the camera at it, back to the root...
-    root = dashboard.doc["root"]
-    child = dashboard.doc["nodes"][root]["children"][0]["node"]
+    root = dashboard.plan.root
+    child = dashboard.plan.nodes[root].children[0].node
     page.get_by_role("button", name="next", exact=True).click()
     wait_for(lambda: dashboard.selected == child)
     page.get_by_role("button", name="Selected", exact=True).click()
@@ -135,7 +135,7 @@ def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Das
     assert canvas is not None
     page.mouse.click(canvas["x"] + canvas["width"] / 2, canvas["y"] + canvas["height"] / 2)
     wait_for(lambda: dashboard.selected == child, 20)
-    action = dashboard.doc["nodes"][child]["action"]
+    action = str(dashboard.plan.nodes[child].action)
     page.get_by_text(action, exact=True).first.wait_for()
     shot(page, "node-selected")
     page.get_by_role("button", name="Bench", exact=True).click()
@@ -203,7 +203,7 @@ def test_click_through_an_execution_then_review_it(page: Page, dashboard: Dashbo
     assert session_id is not None
     wait_for(lambda: dashboard.store.get(session_id).result == "goal")
     path = dashboard.store.path(session_id)
-    assert is_plan_path(dashboard.doc, path)
+    assert dashboard.plan is not None and is_plan_path(dashboard.plan, path)
     # The session is in the review list and replays the same path.
     page.get_by_text("Review sessions").click()
     page.get_by_role("button", name="Refresh list", exact=True).click()

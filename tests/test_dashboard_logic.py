@@ -12,6 +12,7 @@ from app.dashboard.tree_layout import SpanningTree, layout
 from app.dashboard.world import place_parts, world_at
 from planner.feasibility.robot import HOME
 from planner.feasibility.scene import part_boxes
+from planner.plan import Plan
 from planner.planning import plan_scenario
 from planner.scenario import load_scenario
 
@@ -26,7 +27,7 @@ def doc(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
 
 
 def test_spanning_tree_covers_every_node_once(doc: dict[str, Any]) -> None:
-    tree = SpanningTree.of(doc)
+    tree = SpanningTree.of(Plan.from_json(doc))
     assert set(tree.depth) == set(doc["nodes"])
     edges = sum(len(n["children"]) for n in doc["nodes"].values())
     assert len(tree.parent) + len(tree.shared) == edges
@@ -36,7 +37,7 @@ def test_spanning_tree_covers_every_node_once(doc: dict[str, Any]) -> None:
 
 
 def test_layout_puts_parents_over_children_and_collapses(doc: dict[str, Any]) -> None:
-    tree = SpanningTree.of(doc)
+    tree = SpanningTree.of(Plan.from_json(doc))
     full = layout(tree, set())
     assert set(full.positions) == set(doc["nodes"])
     for edge in (e for e in full.edges if not e.shared):
@@ -49,7 +50,7 @@ def test_layout_puts_parents_over_children_and_collapses(doc: dict[str, Any]) ->
     assert folded.hidden_below[first] == tree.subtree_size(first) - 1
     assert len(folded.positions) == len(full.positions) - folded.hidden_below[first]
     # The default view keeps the expected branch open.
-    collapsed = tree.default_collapsed(doc, budget=10)
+    collapsed = tree.default_collapsed(Plan.from_json(doc), budget=10)
     shown = layout(tree, collapsed).positions
     node = root
     while doc["nodes"][node]["children"]:
@@ -61,11 +62,11 @@ def test_layout_puts_parents_over_children_and_collapses(doc: dict[str, Any]) ->
 
 def test_world_at_a_node_shows_its_action_done(doc: dict[str, Any]) -> None:
     boxes = part_boxes(load_scenario(DEFAULT))
-    tree = SpanningTree.of(doc)
+    tree = SpanningTree.of(Plan.from_json(doc))
     nodes = doc["nodes"]
     hold = next(i for i, n in nodes.items() if str(n["action"]).startswith("hold(left,"))
     part = nodes[hold]["action"][len("hold(left,") : -1]
-    view = world_at(nodes, tree.lineage(hold), boxes)
+    view = world_at(Plan.from_json(doc).nodes, tree.lineage(hold), boxes)
     assert view.parts[part].holder == "left"
     assert view.parts[part].z > boxes[part].top_z  # lifted off the bench
     assert view.arms["left"] == nodes[hold]["motion"]["path"][-1]

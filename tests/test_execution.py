@@ -28,16 +28,16 @@ SEEDS = range(100)
 
 
 @pytest.fixture(scope="module")
-def paper_plans() -> dict[str, dict[str, Any]]:
+def paper_plans() -> dict[str, Plan]:
     return {name: paper_plan(name) for name in PAPER_NAMES}
 
 
 @pytest.fixture(scope="module")
-def plan() -> dict[str, Any]:
+def plan() -> Plan:
     return default_plan()
 
 
-def walk(doc: dict[str, Any], source: Any, **kw: Any) -> Executor:
+def walk(doc: Plan, source: Any, **kw: Any) -> Executor:
     executor = Executor(doc, source, **kw)
     executor.run()
     return executor
@@ -69,7 +69,7 @@ class Counter:
 
 @pytest.mark.parametrize("name", PAPER_NAMES)
 def test_random_outcomes_always_reach_a_goal_leaf(
-    name: str, paper_plans: dict[str, dict[str, Any]], tmp_path: Path
+    name: str, paper_plans: dict[str, Plan], tmp_path: Path
 ) -> None:
     doc = paper_plans[name]
     leaves: set[str] = set()
@@ -87,35 +87,35 @@ def test_random_outcomes_always_reach_a_goal_leaf(
         sessions = store.list_sessions(scenario=name)
     assert len(sessions) == len(SEEDS)
     assert {s.result for s in sessions} == {"goal"}
-    if doc["stats"]["L"] > 1:
+    if doc.statistics["L"] > 1:
         assert len(leaves) > 1, "random outcomes should reach more than one leaf"
 
 
-def test_the_same_seed_takes_the_same_branch(plan: dict[str, Any]) -> None:
+def test_the_same_seed_takes_the_same_branch(plan: Plan) -> None:
     paths = {seed: path_of(walk(plan, RandomSource(seed))) for seed in range(20)}
     assert all(path_of(walk(plan, RandomSource(s))) == p for s, p in paths.items())
     assert len({tuple(p) for p in paths.values()}) > 1
 
 
-def test_expected_outcomes_follow_the_first_branch(plan: dict[str, Any]) -> None:
+def test_expected_outcomes_follow_the_first_branch(plan: Plan) -> None:
     executor = walk(plan, ExpectedSource())
     assert executor.result == "goal"
     steps = [(e.action, e.outcome) for e in executor.events if e.kind != "goal"]
-    assert steps == Plan(plan).first_branch()
+    assert steps == plan.first_branch()
     assert {e.source for e in executor.events if e.outcome is not None} == {"expected"}
 
 
-def test_events_carry_motions_and_sentences(plan: dict[str, Any]) -> None:
+def test_events_carry_motions_and_sentences(plan: Plan) -> None:
     executor = walk(plan, RandomSource(4))
     assert [e.seq for e in executor.events] == list(range(len(executor.events)))
     for event in executor.events:
-        node = plan["nodes"][event.node]
-        assert event.kind == node["kind"] and event.action == node["action"]
+        node = plan.nodes[event.node]
+        assert event.kind == node.kind and event.action == (node.action and str(node.action))
         if event.kind == "actuation":
-            assert event.motion is not None and event.motion == node["motion"]
-            assert event.motion["arm"] in ("left", "right") and event.motion["path"]
+            assert event.motion is not None and event.motion == node.motion
+            assert event.motion.arm in ("left", "right") and event.motion.path
         if event.kind == "communication":
-            assert event.text == node["say"]
+            assert event.text == node.say
         if event.outcome is not None:
             assert event.source == "random" and event.confidence is not None
     assert executor.events[-1].kind == "goal"
@@ -124,14 +124,14 @@ def test_events_carry_motions_and_sentences(plan: dict[str, Any]) -> None:
 # -- describing outcomes ------------------------------------------------------
 
 
-def test_every_outcome_of_the_default_plan_has_words(plan: dict[str, Any]) -> None:
+def test_every_outcome_of_the_default_plan_has_words(plan: Plan) -> None:
     seen: dict[str, str] = {}
-    for node in plan["nodes"].values():
-        for child in node["children"]:
-            if child["outcome"] is not None:
-                words = describe(node["action"], child["outcome"])
-                assert words.startswith("Human"), (node["action"], child["outcome"], words)
-                seen[f"{node['action']}={child['outcome']}"] = words
+    for node in plan.nodes.values():
+        for child in node.children:
+            if child.outcome is not None:
+                words = describe(node.action, child.outcome)
+                assert words.startswith("Human"), (node.action, child.outcome, words)
+                seen[f"{node.action}={child.outcome}"] = words
     assert seen["sense(humanHoldingWhichPart)=leg2"] == "Human holds leg2"
     assert seen["askHelp(leg2,top)=yes"] == "Human says yes"
     assert seen["askHelp(leg2,top)=no"] == "Human says no"
@@ -144,8 +144,8 @@ def test_every_outcome_of_the_default_plan_has_words(plan: dict[str, Any]) -> No
 # -- scripted and fallback ----------------------------------------------------
 
 
-def test_a_script_answers_in_order_and_skips_comments(plan: dict[str, Any], tmp_path: Path) -> None:
-    expected = [o for _, o in Plan(plan).first_branch() if o is not None]
+def test_a_script_answers_in_order_and_skips_comments(plan: Plan, tmp_path: Path) -> None:
+    expected = [o for _, o in plan.first_branch() if o is not None]
     script = tmp_path / "answers.txt"
     script.write_text("# the hoped-for branch\n\n" + "\n".join(f"{o}  # ok" for o in expected))
     source = ScriptedSource(script)
@@ -155,7 +155,7 @@ def test_a_script_answers_in_order_and_skips_comments(plan: dict[str, Any], tmp_
     assert source.remaining == 0
 
 
-def test_a_wrong_label_names_its_line(plan: dict[str, Any], tmp_path: Path) -> None:
+def test_a_wrong_label_names_its_line(plan: Plan, tmp_path: Path) -> None:
     script = tmp_path / "answers.txt"
     script.write_text("# first question\nmaybe\n")
     with pytest.raises(ScriptError, match=r"answers\.txt:2: 'maybe' is not an outcome"):
@@ -165,7 +165,7 @@ def test_a_wrong_label_names_its_line(plan: dict[str, Any], tmp_path: Path) -> N
 
 
 def test_fallback_takes_over_from_a_failing_or_silent_source(
-    plan: dict[str, Any], tmp_path: Path
+    plan: Plan, tmp_path: Path
 ) -> None:
     script = tmp_path / "answers.txt"
     script.write_text("maybe\n")  # wrong at the first question, then nothing
@@ -188,7 +188,7 @@ def test_an_unreadable_script_is_a_script_error(tmp_path: Path) -> None:
 # -- clicks and controls ------------------------------------------------------
 
 
-def test_clicks_from_another_thread_drive_the_execution(plan: dict[str, Any]) -> None:
+def test_clicks_from_another_thread_drive_the_execution(plan: Plan) -> None:
     clicks = ClickSource(timeout=None)
     executor = Executor(plan, clicks)
     executor.start()
@@ -199,10 +199,10 @@ def test_clicks_from_another_thread_drive_the_execution(plan: dict[str, Any]) ->
             time.sleep(0.001)
             continue
         assert not clicks.click("not-an-option")
-        node = plan["nodes"][offer.node_id]
-        assert offer.options == tuple(c["outcome"] for c in node["children"])
-        assert offer.words == tuple(describe(node["action"], o) for o in offer.options)
-        choice = node.get("expected", offer.options[0])
+        node = plan.nodes[offer.node_id]
+        assert offer.options == tuple(c.outcome for c in node.children)
+        assert offer.words == tuple(describe(node.action, o) for o in offer.options)
+        choice = node.expected or offer.options[0]
         if clicks.click(choice, offer.node_id):
             answered += 1
             while clicks.pending() == offer and not executor.done:
@@ -213,14 +213,14 @@ def test_clicks_from_another_thread_drive_the_execution(plan: dict[str, Any]) ->
     assert {(e.source, e.confidence) for e in asked} == {("click", 1.0)}
 
 
-def test_a_click_timeout_falls_back_to_the_next_source(plan: dict[str, Any]) -> None:
+def test_a_click_timeout_falls_back_to_the_next_source(plan: Plan) -> None:
     source = FallbackSource(ClickSource(timeout=0.0), ExpectedSource())
     executor = walk(plan, source)
     assert executor.result == "goal"
     assert {e.source for e in executor.events if e.outcome is not None} == {"expected"}
 
 
-def test_abort_wakes_a_source_waiting_for_a_click(plan: dict[str, Any]) -> None:
+def test_abort_wakes_a_source_waiting_for_a_click(plan: Plan) -> None:
     clicks = ClickSource(timeout=None)
     executor = Executor(plan, clicks)
     executor.start()
@@ -231,7 +231,7 @@ def test_abort_wakes_a_source_waiting_for_a_click(plan: dict[str, Any]) -> None:
     assert executor.error is None
 
 
-def test_single_steps_then_abort(plan: dict[str, Any]) -> None:
+def test_single_steps_then_abort(plan: Plan) -> None:
     counter = Counter()
     executor = Executor(plan, ExpectedSource(), [counter])
     executor.pause()
@@ -244,7 +244,7 @@ def test_single_steps_then_abort(plan: dict[str, Any]) -> None:
     assert len(executor.events) == 3
 
 
-def test_pause_step_resume_reaches_the_goal(plan: dict[str, Any]) -> None:
+def test_pause_step_resume_reaches_the_goal(plan: Plan) -> None:
     counter = Counter()
     executor = Executor(plan, RandomSource(7), [counter])
     executor.pause()
@@ -257,7 +257,7 @@ def test_pause_step_resume_reaches_the_goal(plan: dict[str, Any]) -> None:
     assert path_of(executor) == path_of(walk(plan, RandomSource(7)))
 
 
-def test_abort_during_a_step_delay(plan: dict[str, Any]) -> None:
+def test_abort_during_a_step_delay(plan: Plan) -> None:
     counter = Counter()
     executor = Executor(plan, ExpectedSource(), [counter], step_delay=3600)
     executor.start()
@@ -268,18 +268,32 @@ def test_abort_during_a_step_delay(plan: dict[str, Any]) -> None:
 
 
 def test_a_leaf_that_is_no_goal_is_a_dead_end() -> None:
-    doc = {
-        "root": "n0",
-        "nodes": {
-            "n0": {
-                "kind": "sensing",
-                "action": "sense(humanHolding)",
-                "children": [{"outcome": "yes", "node": "n1"}, {"outcome": "no", "node": "n2"}],
+    doc = Plan.from_json(
+        {
+            "format": "tandem-plan/1",
+            "scenario": {"name": "test", "sha256": ""},
+            "facts": [],
+            "root": "n0",
+            "nodes": {
+                "n0": {
+                    "kind": "sensing",
+                    "action": "sense(humanHolding)",
+                    "state": [],
+                    "children": [
+                        {"outcome": "yes", "node": "n1"},
+                        {"outcome": "no", "node": "n2"},
+                    ],
+                },
+                "n1": {"kind": "goal", "action": None, "state": [], "children": []},
+                "n2": {
+                    "kind": "actuation",
+                    "action": "hold(left,leg1)",
+                    "state": [],
+                    "children": [],
+                },
             },
-            "n1": {"kind": "goal", "action": None, "children": []},
-            "n2": {"kind": "actuation", "action": "hold(left,leg1)", "children": []},
-        },
-    }
+        }
+    )
 
     class Always:
         def choose(self, node_id: str, node: Any, options: Any) -> Outcome:

@@ -204,8 +204,8 @@ def test_planning_takes_feasibility_from_geometry_when_asked() -> None:
 
 def test_plan_motions_are_collision_free_within_limits_and_continuous(tmp_path: Path) -> None:
     from planner.feasibility.motions import joint_names
-    from planner.planning import plan_scenario
     from planner.plan import Motion
+    from planner.planning import plan_scenario
     from planner.vocabulary import Hold, Unhold
 
     plan = plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=tmp_path).plan

@@ -10,7 +10,6 @@ import subprocess
 import sys
 from datetime import date, datetime, timedelta
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -25,15 +24,16 @@ from app.store import (
     is_plan_path,
     plan_hash,
 )
+from planner.plan import Plan, ScenarioRef
 from tests.plan_fixtures import default_plan
 
 
 @pytest.fixture(scope="module")
-def plan() -> dict[str, Any]:
+def plan() -> Plan:
     return default_plan()
 
 
-def run_session(store: SessionStore, doc: dict[str, Any], seed: int, note: str = "") -> int:
+def run_session(store: SessionStore, doc: Plan, seed: int, note: str = "") -> int:
     session = store.start(doc, note=note or None)
     executor = Executor(doc, RandomSource(seed), [store.recorder(session)])
     store.finish(session, executor.run())
@@ -72,20 +72,24 @@ def test_the_database_is_in_wal_mode(tmp_path: Path) -> None:
 
 
 def test_a_plan_is_stored_once_under_its_canonical_hash(
-    plan: dict[str, Any], tmp_path: Path
+    plan: Plan, tmp_path: Path
 ) -> None:
     with SessionStore(tmp_path) as store:
         first = run_session(store, plan, 1)
-        second = run_session(store, json.loads(json.dumps(plan, indent=3)), 2)
+        # The same plan read back from a file written another way: the same hash.
+        copy = Plan.from_json(json.loads(json.dumps(plan.to_json(), indent=3)))
+        second = run_session(store, copy, 2)
         digest = store.get(first).plan_hash
         assert store.get(second).plan_hash == digest == plan_hash(plan)
-        canonical = json.dumps(plan, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+        doc = plan.to_json()
+        canonical = json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
         assert digest == hashlib.sha256(canonical.encode()).hexdigest()
         assert store.plan(digest) == plan
+        assert store.plan_doc(digest) == doc
         assert store.db.table("plans").count == 1
 
 
-def test_each_event_is_committed_as_it_happens(plan: dict[str, Any], tmp_path: Path) -> None:
+def test_each_event_is_committed_as_it_happens(plan: Plan, tmp_path: Path) -> None:
     with SessionStore(tmp_path) as store:
         session = store.start(plan)
         reader = sqlite3.connect(tmp_path / DB_NAME)
@@ -104,10 +108,10 @@ def test_each_event_is_committed_as_it_happens(plan: dict[str, Any], tmp_path: P
         assert store.events(session) == executor.events
 
 
-def test_sessions_of_a_dead_process_are_interrupted(plan: dict[str, Any], tmp_path: Path) -> None:
+def test_sessions_of_a_dead_process_are_interrupted(plan: Plan, tmp_path: Path) -> None:
     with SessionStore(tmp_path) as store:
         gone = store.start(plan, pid=dead_pid())
-        store.record(gone, ExecutionEvent(0, 1234.5, plan["root"], "x", "actuation"))
+        store.record(gone, ExecutionEvent(0, 1234.5, plan.root, "x", "actuation"))
         mine = store.start(plan)  # this process: alive
     with SessionStore(tmp_path) as store:
         assert store.interrupted == [gone]
@@ -117,7 +121,7 @@ def test_sessions_of_a_dead_process_are_interrupted(plan: dict[str, Any], tmp_pa
         assert [s.id for s in store.list_sessions(result="running")] == [mine]
 
 
-def test_a_reused_pid_does_not_keep_a_session_open(plan: dict[str, Any], tmp_path: Path) -> None:
+def test_a_reused_pid_does_not_keep_a_session_open(plan: Plan, tmp_path: Path) -> None:
     begun = process_start(os.getpid())
     if begun is None:
         pytest.skip("no /proc here")
@@ -129,8 +133,8 @@ def test_a_reused_pid_does_not_keep_a_session_open(plan: dict[str, Any], tmp_pat
         assert store.get(session).result == "interrupted"
 
 
-def test_list_filters(plan: dict[str, Any], tmp_path: Path) -> None:
-    other = dict(plan, scenario={"name": "other", "sha256": "0" * 64})
+def test_list_filters(plan: Plan, tmp_path: Path) -> None:
+    other = plan.model_copy(update={"scenario": ScenarioRef(name="other", sha256="0" * 64)})
     with SessionStore(tmp_path) as store:
         a = run_session(store, plan, 1)
         b = run_session(store, other, 2)
@@ -140,7 +144,7 @@ def test_list_filters(plan: dict[str, Any], tmp_path: Path) -> None:
         assert [s.id for s in store.list_sessions()] == [a, b, c]
         assert [s.id for s in store.list_sessions(scenario="other")] == [b]
         assert [s.id for s in store.list_sessions(result="aborted")] == [c]
-        assert [s.id for s in store.list_sessions(scenario=plan["scenario"]["name"])] == [a, c]
+        assert [s.id for s in store.list_sessions(scenario=plan.scenario.name)] == [a, c]
         assert [s.id for s in store.list_sessions(since=date(2020, 1, 3))] == [b, c]
         assert [s.id for s in store.list_sessions(since=date(2020, 1, 2))] == [a, b, c]
         tomorrow = date.today() + timedelta(days=1)
@@ -148,11 +152,11 @@ def test_list_filters(plan: dict[str, Any], tmp_path: Path) -> None:
         assert store.get(a).events == len(store.events(a)) > 0
 
 
-def test_paths_and_plan_paths(plan: dict[str, Any], tmp_path: Path) -> None:
+def test_paths_and_plan_paths(plan: Plan, tmp_path: Path) -> None:
     with SessionStore(tmp_path) as store:
         session = run_session(store, plan, 5)
         path = store.path(session)
-    assert path[0][0] == plan["root"] and plan["nodes"][path[-1][0]]["kind"] == "goal"
+    assert path[0][0] == plan.root and plan.nodes[path[-1][0]].kind == "goal"
     assert is_plan_path(plan, path)
     assert not is_plan_path(plan, path[:-1])
     assert is_plan_path(plan, path[:-1], complete=False)
@@ -160,12 +164,12 @@ def test_paths_and_plan_paths(plan: dict[str, Any], tmp_path: Path) -> None:
     assert not is_plan_path(plan, path[1:], complete=False)  # not from the root
     branching = next(i for i, (_, outcome) in enumerate(path) if outcome is not None)
     node, outcome = path[branching]
-    wrong = next(c["outcome"] for c in plan["nodes"][node]["children"] if c["outcome"] != outcome)
+    wrong = next(c.outcome for c in plan.nodes[node].children if c.outcome != outcome)
     bent = [*path[:branching], (node, wrong), *path[branching + 1 :]]
     assert not is_plan_path(plan, bent, complete=False)
 
 
-def test_export_round_trip(plan: dict[str, Any], tmp_path: Path) -> None:
+def test_export_round_trip(plan: Plan, tmp_path: Path) -> None:
     with SessionStore(tmp_path) as store:
         session = run_session(store, plan, 3, note="round trip")
         doc = store.export(session)
@@ -173,11 +177,12 @@ def test_export_round_trip(plan: dict[str, Any], tmp_path: Path) -> None:
     again = json.loads(json.dumps(doc))
     assert again == doc
     assert doc["format"] == "tandem-session/1"
-    assert doc["plan"] == plan
+    assert doc["plan"] == plan.to_json()
     assert doc["session"]["id"] == session and doc["session"]["note"] == "round trip"
     assert doc["session"]["result"] == "goal"
     assert [ExecutionEvent(**e) for e in doc["events"]] == events
-    assert is_plan_path(doc["plan"], [(e["node"], e["outcome"]) for e in doc["events"]])
+    stored = Plan.from_json(doc["plan"])
+    assert is_plan_path(stored, [(e["node"], e["outcome"]) for e in doc["events"]])
 
 
 def test_unknown_sessions(tmp_path: Path) -> None:

@@ -67,8 +67,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     dashboard = Dashboard("127.0.0.1", _port(), args.scenario)
     try:
         loads = page_loads(dashboard, args.loads)
-        dashboard.doc = plan.doc
-        dashboard.tree.show(plan.doc)
+        dashboard.plan = plan
+        dashboard.tree.show(plan)
         ids = list(plan.nodes)
         rng = random.Random(0)
         clicks = []
@@ -83,7 +83,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         dashboard.close()
     rows: list[tuple[str, ...]] = [
-        ("plan", scenario.name, f"{plan.stats['dag_nodes']} nodes ({plan.stats['N']} unfolded)",
+        ("plan", scenario.name,
+         f"{plan.statistics['dag_nodes']} nodes ({plan.statistics['N']} unfolded)",
          f"{plan_s:.2f} s"),
         ("page load to interactive", f"{len(loads)} loads",
          f"median {statistics.median(loads):.2f} s", f"max {max(loads):.2f} s"),

@@ -1,38 +1,51 @@
 """Executing the plan from the dashboard: controls, the simulated human, the log.
 
 The executor runs in its own thread with a `ClickSource` that waits for the
-"Simulated human" buttons; each event is stored (committed as it happens), moves
-the bench to the node and, for robot actions, plays the arm's path.
+"Simulated human" buttons (drawn when the source offers a question: no
+polling); each event is stored (committed as it happens), moves the bench to
+the node and, for robot actions, plays the arm's path. The panel drives the
+dashboard only through its `Stage` and announces starts and ends on `Events`
+(see stage.py).
 """
 
 from __future__ import annotations
 
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+import viser
+
+from app.dashboard.stage import (
+    Events,
+    ExecutionFinished,
+    ExecutionStarted,
+    PlanChanged,
+    Stage,
+)
 from app.execution import ExecutionEvent, Executor
 from app.outcomes import ClickSource, Offer
 from app.store import SessionStore
+from planner.plan import Motion
 
-if TYPE_CHECKING:
-    from app.dashboard.server import Dashboard
-
-POLL_S = 0.1  # how often the panel looks for a question waiting for a click
 FRAMES_PER_MOTION = 20  # arm poses shown per motion (the path is subsampled)
+LOG_LINES = 12
 
 
 class ExecutionPanel:
-    def __init__(self, dashboard: Dashboard, store: SessionStore) -> None:
-        self.dashboard = dashboard
+    def __init__(
+        self, gui: viser.GuiApi, stage: Stage, events: Events, store: SessionStore
+    ) -> None:
+        self.gui = gui
+        self.stage = stage
+        self.events = events
         self.store = store
         self.executor: Executor | None = None
         self.clicks: ClickSource | None = None
         self.session_id: int | None = None
-        self._offer: Offer | None = None
         self._answer_buttons: list[Any] = []
         self._log: list[str] = []
-        gui = dashboard.server.gui
+        self._lock = threading.Lock()  # the answer buttons: executor and GUI threads
         with gui.add_folder("Execute"):
             self.start_button = gui.add_button("Execute plan", disabled=True)
             self.start_button.on_click(lambda _: self.start())
@@ -47,9 +60,10 @@ class ExecutionPanel:
             with self.human_folder:
                 self.question = gui.add_markdown("No question yet.")
             self.log = gui.add_markdown("")
-        threading.Thread(target=self._watch_offers, name="offers", daemon=True).start()
+        events.subscribe(PlanChanged, self._plan_changed)
 
-    def plan_ready(self, ready: bool) -> None:
+    def _plan_changed(self, message: PlanChanged) -> None:
+        ready = message.plan is not None and not message.plan.partial
         self.start_button.disabled = not ready or self.running
 
     @property
@@ -57,14 +71,14 @@ class ExecutionPanel:
         return self.executor is not None and not self.executor.done
 
     def start(self) -> None:
-        doc = self.dashboard.doc
-        if doc is None or "stats" not in doc or self.running:
+        plan = self.stage.current_plan()
+        if plan is None or plan.partial or self.running:
             return
-        self.clicks = ClickSource(timeout=None)  # a person answers; no timeout
-        self.session_id = self.store.start(doc, note="dashboard")
+        self.clicks = ClickSource(timeout=None, on_offer=self._offered)  # a person answers
+        self.session_id = self.store.start(plan, note="dashboard")
         self._log = []
         self.executor = Executor(
-            doc,
+            plan,
             self.clicks,
             [self.store.recorder(self.session_id), self._on_event],
             step_delay=float(self.speed.value),
@@ -72,21 +86,24 @@ class ExecutionPanel:
         self.start_button.disabled = True
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = False
+        self.events.publish(ExecutionStarted(self.session_id))
         self.executor.start()
         threading.Thread(target=self._finish, args=(self.executor,), daemon=True).start()
 
     def _finish(self, executor: Executor) -> None:
         result = executor.wait()
-        if self.session_id is not None and result is not None:
-            self.store.finish(self.session_id, result)
-        self._log.append(f"**Session {self.session_id}: {result}**")
-        self.log.content = "\n\n".join(self._log[-12:])
-        self.question.content = f"Execution ended: {result}."
+        session_id = self.session_id
+        if session_id is not None and result is not None:
+            self.store.finish(session_id, result)
         self._clear_answers()
+        self._log.append(f"**Session {session_id}: {result}**")
+        self.log.content = "\n\n".join(self._log[-LOG_LINES:])
+        self.question.content = f"Execution ended: {result}."
         self.start_button.disabled = False
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = True
-        self.dashboard.review.refresh()
+        if session_id is not None:
+            self.events.publish(ExecutionFinished(session_id, str(result)))
 
     def _pause_resume(self) -> None:
         if self.executor is None:
@@ -98,41 +115,35 @@ class ExecutionPanel:
 
     def _on_event(self, event: ExecutionEvent) -> None:
         # Runs in the executor's thread: a motion takes as long as it is played.
-        self.dashboard.tree.expand_to(event.node)
-        self.dashboard.select(event.node, show_world=event.motion is None)
+        self.stage.select(event.node, show_world=event.motion is None)
         if event.motion:
             self._play(event.motion, float(self.speed.value))
-            self.dashboard.show_world(event.node)
+            self.stage.show_world(event.node)
         words = event.text or event.action or ""
         self._log.append(f"`{event.node}` {event.action or 'goal'}: {words}")
-        self.log.content = "\n\n".join(self._log[-12:])
+        self.log.content = "\n\n".join(self._log[-LOG_LINES:])
 
-    def _play(self, motion: Any, seconds: float) -> None:
-        path = motion["path"]
+    def _play(self, motion: Motion, seconds: float) -> None:
+        path = motion.path
         frames = path[:: max(1, len(path) // FRAMES_PER_MOTION)] + [path[-1]]
-        arms = dict(self.dashboard.current_arms)
+        arms = self.stage.arms()
         for q in frames:
-            arms[motion["arm"]] = q
-            self.dashboard.bench.show_arms(arms)
+            arms[motion.arm] = q
+            self.stage.show_arms(arms)
             time.sleep(seconds / len(frames))
 
     # -- the simulated human ----------------------------------------------------------
 
-    def _watch_offers(self) -> None:
-        while True:
-            time.sleep(POLL_S)
-            clicks = self.clicks
-            offer = clicks.pending() if clicks is not None and self.running else None
-            if offer == self._offer:
-                continue
-            self._offer = offer
-            self._clear_answers()
-            if offer is None:
-                continue
+    def _offered(self, offer: Offer | None) -> None:
+        """The click source's callback: a question waits (buttons), or it was answered."""
+        self._clear_answers()
+        if offer is None:
+            return
+        with self._lock:
             self.question.content = f"**{offer.action}**: what does the human do?"
             with self.human_folder:
                 for label, words in zip(offer.options, offer.words, strict=True):
-                    button = self.dashboard.server.gui.add_button(words)
+                    button = self.gui.add_button(words)
                     button.on_click(self._answer(offer.node_id, label))
                     self._answer_buttons.append(button)
 
@@ -144,7 +155,14 @@ class ExecutionPanel:
         return handler
 
     def _clear_answers(self) -> None:
-        for button in self._answer_buttons:
-            button.remove()
-        self._answer_buttons = []
-        self.question.content = "No question waiting."
+        with self._lock:
+            for button in self._answer_buttons:
+                button.remove()
+            self._answer_buttons = []
+            if self.running:
+                self.question.content = "No question waiting."
+
+    def close(self) -> None:
+        if self.executor is not None:
+            self.executor.abort()
+            self.executor.wait(5.0)

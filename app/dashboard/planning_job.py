@@ -6,10 +6,10 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Literal
 
 from planner.hcp import ConditionalPlanner, DeadEnd, Progress
-from planner.plan import Plan, number_states
+from planner.plan import Plan, build_plan
 from planner.planning import PlanningCancelled, plan_scenario
 from planner.scenario_model import Scenario
 
@@ -98,12 +98,12 @@ class PlanningJob:
             return
         self.plan = result.plan
         elapsed = time.perf_counter() - self._t0
-        nodes = int(result.plan.stats["dag_nodes"])
+        nodes = int(result.plan.statistics["dag_nodes"])
         self._set(JobStatus("done", nodes, 0, elapsed, f"planned in {elapsed:.2f} s"))
 
 
-def partial_doc(planner: ConditionalPlanner) -> dict[str, Any] | None:
-    """The DAG planned so far as a plan-like document (open states have kind "open"),
+def partial_plan(planner: ConditionalPlanner, scenario: Scenario) -> Plan | None:
+    """The DAG planned so far as a partial plan (open states are leaves of kind "open"),
     so the tree can grow on screen while planning goes on; None if not started."""
     for _ in range(3):
         try:
@@ -115,21 +115,10 @@ def partial_doc(planner: ConditionalPlanner) -> dict[str, Any] | None:
         return None
     if planner.root not in nodes:
         return None
-    ids = number_states(nodes, planner.root)
-    out: dict[str, dict[str, Any]] = {}
-    for state, node_id in ids.items():
-        node = nodes.get(state)
-        children = list(node.children) if node is not None else []
-        out[node_id] = {
-            "kind": "open" if node is None else "goal" if node.goal else node.kind or "open",
-            "action": node.action if node is not None else None,
-            "state": sorted(state),
-            "children": [
-                # A child added after the numbering waits for the next snapshot.
-                {"outcome": label, "node": ids[succ]}
-                for label, succ in children
-                if succ in ids
-            ],
-            "expected": node.expected if node is not None else None,
-        }
-    return {"root": ids[planner.root], "nodes": out}
+    return build_plan(
+        nodes,
+        planner.root,
+        scenario_name=scenario.name,
+        scenario_sha256=scenario.sha256,
+        facts=list(planner.problem.facts),
+    )

@@ -1,4 +1,8 @@
-"""Reviewing stored sessions: list with filters, replay on a timeline, export."""
+"""Reviewing stored sessions: list with filters, replay on a timeline, export.
+
+Drives the dashboard through its `Stage`; refreshes its list when an execution
+finishes (an `ExecutionFinished` event), see stage.py.
+"""
 
 from __future__ import annotations
 
@@ -6,14 +10,12 @@ import json
 import threading
 import time
 from datetime import date
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import viser
 
+from app.dashboard.stage import Events, ExecutionFinished, Stage
 from app.store import SessionRecord, SessionStore, UnknownSession, iso
-
-if TYPE_CHECKING:
-    from app.dashboard.server import Dashboard
 
 ANY = "any"
 RESULTS = (ANY, "goal", "aborted", "interrupted", "dead-end")
@@ -25,14 +27,16 @@ def session_label(s: SessionRecord) -> str:
 
 
 class ReviewPanel:
-    def __init__(self, dashboard: Dashboard, store: SessionStore) -> None:
-        self.dashboard = dashboard
+    def __init__(
+        self, gui: viser.GuiApi, stage: Stage, events: Events, store: SessionStore
+    ) -> None:
+        self.stage = stage
         self.store = store
+        self._replaying = threading.Event()
         self.events: list[Any] = []
         self.session: SessionRecord | None = None
         self._ids: dict[str, int] = {}
         self.opened: int | None = None  # set once a session is fully on screen
-        gui = dashboard.server.gui
         with gui.add_folder("Review sessions", expand_by_default=False):
             self.scenario_filter: Any = gui.add_text("Scenario", "")
             self.result_filter: Any = gui.add_dropdown("Result", RESULTS)
@@ -47,6 +51,7 @@ class ReviewPanel:
             export.on_click(lambda event: self._export(event.client))
             self.summary = gui.add_markdown("")
         self.refresh()
+        events.subscribe(ExecutionFinished, lambda _: self.refresh())
 
     def refresh(self) -> None:
         since = None
@@ -76,11 +81,11 @@ class ReviewPanel:
         try:
             self.session = self.store.get(session_id)
             self.events = self.store.events(session_id)
-            doc = self.store.plan(self.session.plan_hash)
+            plan = self.store.plan(self.session.plan_hash)
         except UnknownSession as err:
             self.summary.content = f"**Error:** {err}"
             return
-        self.dashboard.show_plan(doc)
+        self.stage.show_plan(plan)
         last = max(0, len(self.events) - 1)
         self.timeline.max = max(1, last)
         self.timeline.disabled = not self.events
@@ -98,8 +103,7 @@ class ReviewPanel:
             return
         k = min(max(0, k), len(self.events) - 1)
         event = self.events[k]
-        self.dashboard.tree.expand_to(event.node)
-        self.dashboard.select(event.node)
+        self.stage.select(event.node)
         spoken = [
             f"`{e.node}` {e.action or 'goal'}"
             + (f" → **{e.outcome}**" if e.outcome else "")
@@ -115,11 +119,17 @@ class ReviewPanel:
     def _replay(self) -> None:
         def run() -> None:
             for k in range(len(self.events)):
+                if not self._replaying.is_set():
+                    return  # closed meanwhile
                 self.timeline.value = k
                 self.show_step(k)
                 time.sleep(0.3)
 
+        self._replaying.set()
         threading.Thread(target=run, name="replay", daemon=True).start()
+
+    def close(self) -> None:
+        self._replaying.clear()
 
     def _export(self, client: viser.ClientHandle | None) -> None:
         if self.session is None or client is None:

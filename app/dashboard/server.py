@@ -1,9 +1,14 @@
-"""The dashboard: one viser server with the bench, the plan tree and the panels."""
+"""The dashboard: one viser server with the bench, the plan tree and the panels.
+
+The `Dashboard` is the panels' `Stage` (stage.py): it owns the scene and the
+tree, and hands each panel the GUI API, itself as a stage, and the events bus.
+"""
 
 from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import viser
@@ -12,11 +17,13 @@ from app.dashboard import scenario_edit
 from app.dashboard.bench_scene import BenchScene
 from app.dashboard.execution_panel import ExecutionPanel
 from app.dashboard.node_details import details_markdown, stats_html
-from app.dashboard.planning_job import JobStatus, PlanningJob, partial_doc
+from app.dashboard.planning_job import JobStatus, PlanningJob, partial_plan
 from app.dashboard.review_panel import ReviewPanel
+from app.dashboard.stage import Events, PlanChanged
 from app.dashboard.tree_view import WALL_X, TreeView
 from app.dashboard.world import world_at
 from app.store import SessionStore
+from planner.plan import Plan, PlanNode
 
 LIVE_REDRAW_S = 0.5  # at most two redraws of the growing tree per second
 CAMERAS = {
@@ -46,16 +53,18 @@ class Dashboard:
         self.cache_dir = cache_dir
         self.loaded: scenario_edit.Loaded | None = None
         self.job: PlanningJob | None = None
-        self.doc: dict[str, Any] | None = None
+        self.plan: Plan | None = None
         self.selected: str | None = None
+        self.events = Events()
         self._last_live = 0.0
         self._lock = threading.Lock()
         # Panels first: a new page gets messages in creation order, so it can be used
         # while the robot's meshes (~5 MB) are still arriving.
         self._build_gui()
         self.store = SessionStore(data_dir)
-        self.execution = ExecutionPanel(self, self.store)
-        self.review = ReviewPanel(self, self.store)
+        gui = self.server.gui
+        self.execution = ExecutionPanel(gui, self, self.events, self.store)
+        self.review = ReviewPanel(gui, self, self.events, self.store)
         self.bench = BenchScene(self.server, load_models=load_models)
         self.tree = TreeView(self.server, self.select)
         self.current_arms: dict[str, list[float]] = {}
@@ -145,8 +154,8 @@ class Dashboard:
             self.safety.value = scenario.preferences.safety
             self.verbosity.value = scenario.preferences.verbosity
         self._rebuild_part_inputs()
-        self.doc = None
-        self.execution.plan_ready(False)
+        self.plan = None
+        self.events.publish(PlanChanged(None))
         self.status.content = f"Scenario **{scenario.name}** ({len(scenario.parts)} parts)."
 
     def _rebuild_part_inputs(self) -> None:
@@ -226,67 +235,79 @@ class Dashboard:
                 and now - self._last_live > LIVE_REDRAW_S
             ):
                 self._last_live = now
-                partial = partial_doc(job.planner)
+                partial = partial_plan(job.planner, job.scenario)
                 if partial is not None:
                     with self._lock:
-                        self.doc = partial
+                        self.plan = partial
                         self.tree.show(partial)
             return
         self.plan_button.disabled = False
         self.cancel_button.disabled = True
         self.status.content = status.message
         if status.state == "done" and job is not None and job.plan is not None:
-            self.show_plan(job.plan.doc)
+            self.show_plan(job.plan)
             self.camera("Plan tree")
 
-    def show_plan(self, doc: dict[str, Any]) -> None:
+    # -- the stage the panels drive (stage.Stage) ------------------------------------
+
+    def current_plan(self) -> Plan | None:
+        return self.plan
+
+    def show_plan(self, plan: Plan) -> None:
         """A complete plan (planned here or stored with a session) in the tree and panels."""
         with self._lock:
-            self.doc = doc
-            self.tree.show(doc)
-        self.stats.content = stats_html(doc)
-        self.select(doc["root"])
-        self.execution.plan_ready(True)
+            self.plan = plan
+            self.tree.show(plan)
+        self.stats.content = stats_html(plan)
+        self.select(plan.root)
+        self.events.publish(PlanChanged(plan))
+
+    def arms(self) -> dict[str, list[float]]:
+        return dict(self.current_arms)
+
+    def show_arms(self, arms: Mapping[str, list[float]]) -> None:
+        self.bench.show_arms(dict(arms))
 
     # -- the selected node ----------------------------------------------------------
 
     def select(self, node_id: str, *, show_world: bool = True) -> None:
         """Show a node: its details, and the bench as the node leaves it."""
         with self._lock:
-            doc, tree = self.doc, self.tree.tree
-            if doc is None or tree is None or node_id not in doc["nodes"]:
+            plan, tree = self.plan, self.tree.tree
+            if plan is None or tree is None or node_id not in plan.nodes:
                 return
+            self.tree.expand_to(node_id)
             self.selected = node_id
             lineage = tree.lineage(node_id)
-            node = doc["nodes"][node_id]
+            node = plan.nodes[node_id]
             self.details.content = details_markdown(node_id, node)
             self.tree.highlight(node_id)
             if show_world:
-                self._show_world(doc, lineage)
-            self.toggle_button.disabled = not node["children"]
+                self._show_world(plan, lineage)
+            self.toggle_button.disabled = not node.children
             self.parent_button.disabled = len(lineage) < 2
             self._child_buttons(node)
 
     def show_world(self, node_id: str) -> None:
         """The bench as `node_id` leaves it (after an arm's motion has been played)."""
         with self._lock:
-            if self.doc is not None and self.tree.tree is not None:
-                self._show_world(self.doc, self.tree.tree.lineage(node_id))
+            if self.plan is not None and self.tree.tree is not None:
+                self._show_world(self.plan, self.tree.tree.lineage(node_id))
 
-    def _show_world(self, doc: dict[str, Any], lineage: list[str]) -> None:
-        world = world_at(doc["nodes"], lineage, self.bench.boxes)
+    def _show_world(self, plan: Plan, lineage: list[str]) -> None:
+        world = world_at(plan.nodes, lineage, self.bench.boxes)
         self.bench.show(world)
         self.current_arms = world.arms
 
-    def _child_buttons(self, node: dict[str, Any]) -> None:
+    def _child_buttons(self, node: PlanNode) -> None:
         if self.children_group is not None:
             self.children_group.remove()
             self.children_group = None
-        kids = node["children"]
+        kids = node.children
         if not kids:
             return
-        labels = [k["outcome"] or "next" for k in kids]
-        targets = {label: k["node"] for label, k in zip(labels, kids, strict=True)}
+        labels = [k.outcome or "next" for k in kids]
+        targets = {label: k.node for label, k in zip(labels, kids, strict=True)}
         with self.node_folder:
             self.children_group = self.server.gui.add_button_group("Go to", labels)
         self.children_group.on_click(lambda e: self._go(targets[e.target.value]))
@@ -309,7 +330,8 @@ class Dashboard:
     def close(self) -> None:
         if self.job is not None:
             self.job.cancel()
-        if self.execution.executor is not None:
-            self.execution.executor.abort()
+        for panel in (self.execution, self.review):
+            panel.close()
+        self.events.clear()
         self.server.stop()
         self.store.close()

@@ -10,9 +10,8 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any
 
-from planner.plan import expected_path
+from planner.plan import Plan
 
 COLUMN = 1.0  # layout units between neighbouring leaves
 ROW = 1.6  # between depths
@@ -48,9 +47,9 @@ class SpanningTree:
     depth: dict[str, int]
 
     @classmethod
-    def of(cls, doc: dict[str, Any]) -> SpanningTree:
-        nodes = doc["nodes"]
-        root = doc["root"]
+    def of(cls, plan: Plan) -> SpanningTree:
+        nodes = plan.nodes
+        root = plan.root
         children: dict[str, list[tuple[str | None, str]]] = {root: []}
         parent: dict[str, str] = {}
         depth = {root: 0}
@@ -58,15 +57,15 @@ class SpanningTree:
         queue = deque([root])
         while queue:
             node_id = queue.popleft()
-            for child in nodes[node_id]["children"]:
-                kid = child["node"]
+            for child in nodes[node_id].children:
+                kid = child.node
                 if kid in depth:
-                    shared.append(Edge(node_id, kid, child["outcome"], True))
+                    shared.append(Edge(node_id, kid, child.outcome, True))
                     continue
                 depth[kid] = depth[node_id] + 1
                 parent[kid] = node_id
                 children[kid] = []
-                children[node_id].append((child["outcome"], kid))
+                children[node_id].append((child.outcome, kid))
                 queue.append(kid)
         return cls(root, children, parent, shared, depth)
 
@@ -85,11 +84,11 @@ class SpanningTree:
             stack.extend(kid for _, kid in self.children[n])
         return count
 
-    def default_collapsed(self, doc: dict[str, Any], budget: int = 60) -> set[str]:
+    def default_collapsed(self, plan: Plan, budget: int = 60) -> set[str]:
         """Collapse so about `budget` nodes show: the expected branch stays open, then
         the shallowest nodes first."""
         keep: set[str] = set()
-        for on_branch, _ in expected_path(doc):
+        for on_branch, _ in plan.expected_path():
             # The expected child may hang under another parent in the spanning tree.
             keep.update(self.lineage(on_branch))
         shown = set(keep)

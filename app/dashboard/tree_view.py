@@ -16,7 +16,8 @@ import numpy as np
 import viser
 
 from app.dashboard.tree_layout import SpanningTree, TreeLayout, layout
-from planner.plan import KIND_COLOURS, expected_path
+from planner.plan import KIND_COLOURS, Plan
+from planner.vocabulary import Action
 
 WALL_X = 8.0
 SCALE = 0.25  # metres per layout unit
@@ -34,10 +35,10 @@ def rgb(hex_colour: str) -> tuple[int, int, int]:
     return (int(h[0:2], 16), int(h[2:4], 16), int(h[4:6], 16))
 
 
-def short(action: str | None, kind: str) -> str:
+def short(action: Action | None, kind: str) -> str:
     if action is None:
         return "goal" if kind == "goal" else "..."
-    return action.replace("sense(", "sense ").replace("humanHolding", "hHolding")
+    return str(action).replace("sense(", "sense ").replace("humanHolding", "hHolding")
 
 
 class TreeView:
@@ -46,7 +47,7 @@ class TreeView:
     def __init__(self, server: viser.ViserServer, on_select: Callable[[str], None]) -> None:
         self.server = server
         self.on_select = on_select
-        self.doc: dict[str, Any] | None = None
+        self.plan: Plan | None = None
         self.tree: SpanningTree | None = None
         self.collapsed: set[str] = set()
         self.current: TreeLayout | None = None
@@ -79,12 +80,12 @@ class TreeView:
 
     # -- drawing ----------------------------------------------------------------
 
-    def show(self, doc: dict[str, Any], *, keep_collapsed: bool = False) -> None:
-        """Draw `doc`; a new plan gets the default collapsing (expected branch open)."""
-        self.doc = doc
-        self.tree = SpanningTree.of(doc)
+    def show(self, plan: Plan, *, keep_collapsed: bool = False) -> None:
+        """Draw `plan`; a new plan gets the default collapsing (expected branch open)."""
+        self.plan = plan
+        self.tree = SpanningTree.of(plan)
         if not keep_collapsed:
-            self.collapsed = self.tree.default_collapsed(doc)
+            self.collapsed = self.tree.default_collapsed(plan)
         self.redraw()
 
     def toggle(self, node_id: str) -> None:
@@ -107,19 +108,19 @@ class TreeView:
             self._redraw()
 
     def _redraw(self) -> None:
-        assert self.doc is not None and self.tree is not None
+        assert self.plan is not None and self.tree is not None
         for handle in self._handles + self._near_selection:
             handle.remove()
         self._handles, self._near_selection = [], []
         self.current = layout(self.tree, self.collapsed)
-        nodes = self.doc["nodes"]
+        nodes = self.plan.nodes
         scene = self.server.scene
         size = (0.02, 0.7 * SCALE, 0.45 * SCALE)
         labelled = self.labelled_all = len(self.current.positions) <= LABEL_LIMIT
-        branch = {node_id for node_id, _ in expected_path(self.doc)}
+        branch = {node_id for node_id, _ in self.plan.expected_path()}
         for node_id in self.current.positions:
             node = nodes[node_id]
-            kind = node["kind"]
+            kind = node.kind
             colour = rgb(KIND_COLOURS[kind]) if kind in KIND_COLOURS else OPEN_COLOUR
             box = scene.add_box(
                 f"{PREFIX}/nodes/{node_id}", color=colour, dimensions=size,
@@ -130,7 +131,7 @@ class TreeView:
             hidden = self.current.hidden_below.get(node_id)
             named = labelled or node_id in branch
             if named or hidden:
-                text = short(node["action"], kind) if named else ""
+                text = short(node.action, kind) if named else ""
                 if hidden:
                     text += f"  [+{hidden}]"
                 self._handles.append(self._label(node_id, text.strip()))
@@ -201,13 +202,13 @@ class TreeView:
         for handle in self._near_selection:
             handle.remove()
         self._near_selection = []
-        if self.labelled_all or self.doc is None or self.current is None:
+        if self.labelled_all or self.plan is None or self.current is None:
             return
-        nodes = self.doc["nodes"]
-        around = [node_id] + [k["node"] for k in nodes[node_id]["children"]]
+        nodes = self.plan.nodes
+        around = [node_id] + [k.node for k in nodes[node_id].children]
         for n in around:
             if n in self.current.positions:
-                text = short(nodes[n]["action"], nodes[n]["kind"])
+                text = short(nodes[n].action, nodes[n].kind)
                 self._near_selection.append(self._label(n, text, "near"))
 
     def _clicked(self, node_id: str) -> Callable[[Any], None]:

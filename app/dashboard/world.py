@@ -8,12 +8,13 @@ are drawn on the human's side of the bench.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
-from planner.feasibility.motions import Hands
 from planner.feasibility.robot import HOME
 from planner.feasibility.scene import BENCH_TOP_Z, PartBox
+from planner.plan import PlanNode
+from planner.vocabulary import Hands
 
 LIFT = 0.12  # metres above the bench for a part held by an arm
 HUMAN_HANDS_X = 1.55  # where the human holds parts, past the far edge of the bench
@@ -71,23 +72,24 @@ def place_parts(boxes: dict[str, PartBox], state: list[str]) -> dict[str, Placem
     return out
 
 
-def arms_at(nodes: dict[str, Any], lineage: list[str]) -> dict[str, list[float]]:
+def arms_at(nodes: Mapping[str, PlanNode], lineage: list[str]) -> dict[str, list[float]]:
     """Each arm at the end of its latest motion along `lineage` (root first, the
     selected node last, its own motion included); home if it has not moved."""
     arms = {arm: list(q) for arm, q in HOME.items()}
     for node_id in lineage:
-        motion = nodes[node_id].get("motion")
-        if motion and motion.get("path"):
-            arms[motion["arm"]] = list(motion["path"][-1])
+        motion = nodes[node_id].motion
+        if motion and motion.path:
+            arms[motion.arm] = list(motion.path[-1])
     return arms
 
 
-def world_at(nodes: dict[str, Any], lineage: list[str], boxes: dict[str, PartBox]) -> WorldView:
+def world_at(
+    nodes: Mapping[str, PlanNode], lineage: list[str], boxes: dict[str, PartBox]
+) -> WorldView:
     """The world as the selected node (last of `lineage`) leaves it: its own action
     done, so clicking `hold(left,leg1)` shows leg1 in the left hand."""
     node = nodes[lineage[-1]]
-    after = node["state"]
-    children = node.get("children") or []
-    if node.get("kind") == "actuation" and children:
-        after = nodes[children[0]["node"]]["state"]
+    after = node.state
+    if node.kind == "actuation" and node.children:
+        after = nodes[node.children[0].node].state
     return WorldView(place_parts(boxes, after), arms_at(nodes, lineage))

@@ -1,0 +1,104 @@
+"""How the dashboard's panels are composed: a narrow stage and typed events.
+
+The pattern, for every panel (execution, review, and the camera and speech
+panels to come):
+
+- The `Dashboard` (server.py) owns the viser server, the bench scene and the
+  plan tree. A panel receives the GUI API to build its controls in, the
+  `Stage` it may drive, and the `Events` bus; never the dashboard itself.
+- `Stage` is all a panel may do to what is on screen: show a plan, select a
+  node, show the world at a node, move the arms, read the current plan.
+- Panels tell each other what happened only through `Events`: typed,
+  documented messages (as viser's own messages are), delivered synchronously
+  to the subscribers in the order they subscribed. No panel changes another
+  panel's state, and no panel polls: sources call back when something changes.
+- Every panel has `close()`; the dashboard closes them all when it stops.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Protocol, TypeVar
+
+from planner.plan import Plan
+
+
+class Stage(Protocol):
+    """What a panel may do to the bench, the tree and the selection."""
+
+    def current_plan(self) -> Plan | None:
+        """The plan on screen, complete or still being built (`plan.partial`)."""
+        ...
+
+    def show_plan(self, plan: Plan) -> None:
+        """Draw a complete plan in the tree and select its root."""
+        ...
+
+    def select(self, node_id: str, *, show_world: bool = True) -> None:
+        """Select a node (opening the tree to it); the bench as the node leaves it."""
+        ...
+
+    def show_world(self, node_id: str) -> None:
+        """The bench as `node_id` leaves it (after an arm's motion has been played)."""
+        ...
+
+    def arms(self) -> dict[str, list[float]]:
+        """Each arm's joints as shown now."""
+        ...
+
+    def show_arms(self, arms: Mapping[str, list[float]]) -> None:
+        """Move the drawn arms (a frame of a played motion)."""
+        ...
+
+
+# -- messages -------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PlanChanged:
+    """A plan was shown (`plan`), or the shown one was dropped (None: scenario changed)."""
+
+    plan: Plan | None
+
+
+@dataclass(frozen=True)
+class ExecutionStarted:
+    """An execution of the shown plan started, recorded as `session_id`."""
+
+    session_id: int
+
+
+@dataclass(frozen=True)
+class ExecutionFinished:
+    """The execution recorded as `session_id` ended with `result` (goal, aborted, ...)."""
+
+    session_id: int
+    result: str
+
+
+Message = PlanChanged | ExecutionStarted | ExecutionFinished
+M = TypeVar("M", PlanChanged, ExecutionStarted, ExecutionFinished)
+
+
+class Events:
+    """Synchronous publish/subscribe of typed messages between panels."""
+
+    def __init__(self) -> None:
+        self._handlers: dict[type[Message], list[Callable[[Message], None]]] = {}
+        self._lock = threading.Lock()
+
+    def subscribe(self, kind: type[M], handler: Callable[[M], None]) -> None:
+        with self._lock:
+            self._handlers.setdefault(kind, []).append(handler)  # type: ignore[arg-type]
+
+    def publish(self, message: Message) -> None:
+        with self._lock:
+            handlers = list(self._handlers.get(type(message), ()))
+        for handler in handlers:
+            handler(message)
+
+    def clear(self) -> None:
+        with self._lock:
+            self._handlers.clear()
