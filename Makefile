@@ -27,7 +27,7 @@ test: $(STAMP) system
 
 bench: $(STAMP) system
 	$(BIN)/tandem bench
-	$(BIN)/python -m app.dashboard.bench
+	$(BIN)/python -m app.benchmark.dashboard_benchmark
 
 lint: $(STAMP)
 	$(BIN)/ruff check planner app tests

@@ -14,18 +14,15 @@ and a top. Its three tables each grow one quantity from 2 to 6:
 
 The paper does not publish its instance files, so this is our reading of its
 "Problem Instances" paragraph; n = 7..10 continues each family past the
-paper. `python -m planner.paper DIR` writes every file; tests/test_paper.py
+paper. `tandem scenario paper DIR` writes every file; tests/test_paper.py
 checks that the committed files are exactly what this module produces.
 """
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 FAMILIES = ("U", "P", "R")
 PAPER_N = range(2, 7)  # the paper's tables: n = 2..6
@@ -223,21 +220,3 @@ def scenario_toml(family: str, n: int) -> str:
 def generated_files(families: bool = True) -> dict[str, str]:
     """File name -> TOML text for every instance."""
     return {f"{instance_name(f, n)}.toml": scenario_toml(f, n) for f, n in all_instances(families)}
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m planner.paper", description="Write the paper's benchmark scenarios."
-    )
-    parser.add_argument("directory", help="where to write the .toml files (created if missing)")
-    args = parser.parse_args(argv)
-    out = Path(args.directory)
-    out.mkdir(parents=True, exist_ok=True)
-    for name, text in generated_files().items():
-        (out / name).write_text(text, encoding="utf-8")
-        print(out / name)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import functools
 import json
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -38,9 +37,9 @@ def default_plan() -> dict[str, Any]:
 
 
 def tandem_command() -> list[str]:
-    # The installed console script when the venv has one, else the same entry point.
-    script = shutil.which("tandem", path=str(Path(sys.executable).parent))
-    return [script] if script else [sys.executable, "-m", "app.cli"]
+    # This checkout's entry point (run from ROOT); the installed console script
+    # is tested on a built wheel by tests/test_packaging.py.
+    return [sys.executable, "-m", "app.cli"]
 
 
 def tandem(

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from planner.feasibility.motions import Hands
+from planner.feasibility.plan_motions import Hands
 from planner.feasibility.robot import HOME
 from planner.feasibility.scene import BENCH_TOP_Z, PartBox
 

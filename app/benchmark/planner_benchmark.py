@@ -1,6 +1,7 @@
 """The paper's benchmark: plan, audit and time every instance beside the paper's numbers.
 
-The instances are the scenario files of `planner.paper` (static/scenarios/paper).
+The instances are the scenario files of `planner.paper` (the shipped
+`paper/` scenarios). `tandem bench` (app/cli/benchmark.py) runs and prints it.
 Each is planned in-process with `plan_scenario`, audited with
 `planner.audit.audit`, and its tree statistics are set beside Tables 1-3 of
 Rizwan, Patoglu and Erdem (TPLP), transcribed in `PAPER` below.
@@ -136,7 +137,7 @@ def load(instance: Instance, directory: Path = SCENARIO_DIR) -> Scenario:
 
 
 @dataclass
-class BenchRow:
+class BenchmarkRow:
     instance: Instance
     stats: dict[str, int] = field(default_factory=dict)
     first_branch_s: float = 0.0  # median over the runs
@@ -187,14 +188,14 @@ class BenchRow:
 
 def run_instance(
     instance: Instance, *, workers: int = 0, repeat: int = 1, directory: Path = SCENARIO_DIR
-) -> BenchRow:
+) -> BenchmarkRow:
     """Plans `instance` `repeat` times; statistics and audit come from the median-time run.
 
     Each run starts with an empty check cache (a cold run, timed), then plans again
     with the cache it filled, which gives the cached check time.
     """
     scenario = load(instance, directory)
-    row = BenchRow(instance)
+    row = BenchmarkRow(instance)
     runs = []
     cold: list[float] = []
     cached: list[float] = []
@@ -242,8 +243,8 @@ def run(
     workers: int = 0,
     repeat: int = 1,
     directory: Path = SCENARIO_DIR,
-    report: Callable[[int, BenchRow], None] | None = None,
-) -> list[BenchRow]:
+    report: Callable[[int, BenchmarkRow], None] | None = None,
+) -> list[BenchmarkRow]:
     rows = []
     for i, instance in enumerate(selected):
         row = run_instance(instance, workers=workers, repeat=repeat, directory=directory)
@@ -267,7 +268,7 @@ def _d(stats: dict[str, int] | PaperRow) -> str:
     return f"{stats['D']}={stats['A']}+{stats['S']}+{stats['C']}"
 
 
-def table_row(row: BenchRow) -> tuple[str, ...]:
+def table_row(row: BenchmarkRow) -> tuple[str, ...]:
     inst = row.instance
     s = row.stats
     ours: tuple[str, ...]
@@ -289,7 +290,7 @@ def table_row(row: BenchRow) -> tuple[str, ...]:
     return (inst.name, f"{inst.family}{inst.n}", *ours, row.check, "|", *theirs, ratio)
 
 
-def summary(rows: Sequence[BenchRow], repeat: int = 1) -> list[str]:
+def summary(rows: Sequence[BenchmarkRow], repeat: int = 1) -> list[str]:
     lines = []
     planned = [r for r in rows if r.stats]
     ours = [r for r in planned if r.paper is not None]
@@ -329,7 +330,7 @@ def summary(rows: Sequence[BenchRow], repeat: int = 1) -> list[str]:
     return lines
 
 
-def report_text(rows: Sequence[BenchRow], repeat: int = 1, workers: int = 0) -> str:
+def report_text(rows: Sequence[BenchmarkRow], repeat: int = 1, workers: int = 0) -> str:
     legend = (
         "Columns after | are the paper's (Rizwan, Patoglu, Erdem, Tables 1-3; p.C = confirm); "
         "ratio = paper plan s / our plan s."

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from app.cli.exit_codes import BadInput
 from planner.plan import format_table
 from planner.scenario import load_scenario
 
@@ -33,8 +34,9 @@ def run(args: argparse.Namespace) -> int:
             scenario, planner=args.planner, time_limit=args.time_limit, seed=args.seed
         )
     except (RobotModelMissing, ValueError) as err:
-        print(f"{args.scenario}: feasibility: {err}")
-        return 2
+        # Caught here, not in main's table: naming RobotModelMissing there would
+        # load pybullet for every subcommand.
+        raise BadInput(f"{args.scenario}: feasibility: {err}") from err
     total = time.perf_counter() - start
     rows: list[tuple[str, ...]] = [
         (
