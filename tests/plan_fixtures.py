@@ -10,10 +10,11 @@ from pathlib import Path
 from typing import Any
 
 from planner.planning import plan_scenario
+from planner.resources import scenario_dir
 from planner.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
-SCENARIOS = ROOT / "static" / "scenarios"
+SCENARIOS = scenario_dir()
 PAPER_NAMES = [f"paper-{i:02d}" for i in range(1, 16)]
 
 

@@ -15,14 +15,14 @@ import statistics
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 
 from app.dashboard.server import Dashboard
 from planner.plan import format_table
 from planner.planning import plan_scenario
+from planner.resources import scenario_path
 from planner.scenario import load_scenario
 
-DEFAULT = Path(__file__).resolve().parents[2] / "static" / "scenarios" / "paper" / "U10.toml"
+DEFAULT = scenario_path("paper/U10.toml")
 
 
 def _port() -> int:

@@ -22,10 +22,10 @@ from planner.audit import audit
 from planner.hcp import DeadEnd
 from planner.plan import format_table
 from planner.planning import plan_scenario
+from planner.resources import scenario_path
 from planner.scenario import Scenario, load_scenario, parse_scenario
 
-# The committed files; absent when the package is installed without the repository.
-SCENARIO_DIR = Path(__file__).resolve().parent.parent / "static" / "scenarios" / "paper"
+SCENARIO_DIR = scenario_path("paper")
 
 
 @dataclass(frozen=True)

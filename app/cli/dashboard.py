@@ -12,7 +12,9 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
     parser.add_argument("--port", type=int, default=8080, help="port (default 8080)")
     parser.add_argument(
-        "--scenario", default="default.toml", help="scenario file, or a name under static/scenarios"
+        "--scenario",
+        default="default.toml",
+        help="scenario file, or a shipped one: default.toml, paper/U10.toml",
     )
     parser.add_argument("--workers", type=int, default=0, help="planner processes (0: all cores)")
     parser.add_argument(

@@ -24,6 +24,7 @@ from app.outcomes import (
 from app.store import SessionStore
 from planner.plan import FORMAT
 from planner.planning import plan_scenario
+from planner.resources import find_scenario
 from planner.scenario import load_scenario
 
 
@@ -55,7 +56,7 @@ def load_plan(target: str) -> dict[str, Any]:
         if not isinstance(doc, dict) or doc.get("format") != FORMAT:
             raise BadInput(f"{target}: not a {FORMAT} document")
         return doc
-    scenario = load_scenario(path)
+    scenario = load_scenario(find_scenario(path))
     return plan_scenario(scenario, workers=1).plan.doc
 
 

@@ -7,6 +7,7 @@ import time
 
 from app.cli.exit_codes import BadInput
 from planner.plan import format_table
+from planner.resources import find_scenario
 from planner.scenario import load_scenario
 
 
@@ -23,7 +24,7 @@ def register(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(find_scenario(args.scenario))
     # Imported here so the other subcommands never pay for pybullet and OMPL.
     from planner.feasibility import reachability_table
     from planner.feasibility.robot import RobotModelMissing

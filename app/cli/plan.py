@@ -9,11 +9,16 @@ from pathlib import Path
 from planner.hcp import Progress
 from planner.plan import TABLE_HEADER, format_table, stats_row
 from planner.planning import plan_scenario
+from planner.resources import find_scenario
 from planner.scenario import load_scenario
 
 
 def register(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("input", metavar="scenario", help="scenario file (TOML)")
+    parser.add_argument(
+        "input",
+        metavar="scenario",
+        help="scenario file (TOML), or a shipped one: default.toml, paper/U10.toml",
+    )
     parser.add_argument("-o", "--output", help="write the tandem-plan/1 JSON here")
     parser.add_argument("--dot", help="write the plan tree as Graphviz DOT here")
     parser.add_argument("--workers", type=int, default=0, help="worker processes (0: all cores)")
@@ -45,7 +50,7 @@ def _progress_line(p: Progress) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    scenario = load_scenario(args.input)
+    scenario = load_scenario(find_scenario(args.input))
     progress = None if args.quiet or not sys.stderr.isatty() else _progress_line
     try:
         cache_dir = ":memory:" if args.no_cache else args.cache_dir
