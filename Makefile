@@ -30,5 +30,6 @@ bench: $(STAMP) system
 	$(BIN)/python -m app.benchmark.dashboard_benchmark
 
 lint: $(STAMP)
-	$(BIN)/ruff check planner app tests
-	$(BIN)/mypy planner app
+	$(BIN)/ruff check planner app perception speech tests
+	$(BIN)/mypy planner app perception speech
+	$(BIN)/lint-imports

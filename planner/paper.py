@@ -24,6 +24,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from planner.scenario_sections import DEFAULT_REGION_X
+
 FAMILIES = ("U", "P", "R")
 PAPER_N = range(2, 7)  # the paper's tables: n = 2..6
 CONTINUED_N = range(7, 11)  # beyond the paper, up to 10
@@ -34,14 +36,11 @@ WHAT = {
     "R": "parts reachable by the robot only",
 }
 
-# Region extents along the bench (metres) and whether the human reaches them;
-# the same three regions as static/scenarios/default.toml.
-REGIONS = (
-    ("robotOnly", 0.30, 0.65, False),
-    ("shared", 0.65, 1.00, True),
-    ("humanOnly", 1.00, 1.40, True),
-)
-EXTENT = {rid: (x0, x1) for rid, x0, x1, _ in REGIONS}
+# The default bench's regions along x, and whether the human reaches them;
+# the same three regions as the shipped default.toml.
+HUMAN_REACH = {"robotOnly": False, "shared": True, "humanOnly": True}
+EXTENT = DEFAULT_REGION_X
+REGIONS = tuple((rid, x0, x1, HUMAN_REACH[rid]) for rid, (x0, x1) in EXTENT.items())
 
 # A small model table: the top lies flat in the middle of the shared region,
 # within both arms' top-down reach (x <= ~0.85 m, field notes); legs stand

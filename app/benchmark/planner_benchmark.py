@@ -20,7 +20,7 @@ from typing import Any
 from planner import paper
 from planner.audit import audit
 from planner.hcp import DeadEnd
-from planner.plan import format_table
+from planner.plan import STAT_KEYS, format_table
 from planner.planning import plan_scenario
 from planner.resources import scenario_path
 from planner.scenario import Scenario, load_scenario, parse_scenario
@@ -100,8 +100,6 @@ PAPER: dict[int, PaperRow] = {
     15: PaperRow(18, 13, 7, 5, 1, 1, 1, 2, 399, 8, 509, 1090, 46),
 }
 # fmt: on
-
-STAT_KEYS = ("L", "D", "A", "S", "C", "K", "O", "CF", "R", "DN", "BF", "N", "dag_nodes")
 
 
 @dataclass(frozen=True)
