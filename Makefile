@@ -27,8 +27,9 @@ test: $(STAMP) system
 
 bench: $(STAMP) system
 	$(BIN)/tandem bench
-	$(BIN)/python -m app.dashboard.bench
+	$(BIN)/python -m app.benchmark.dashboard_benchmark
 
 lint: $(STAMP)
-	$(BIN)/ruff check planner app tests
-	$(BIN)/mypy planner app
+	$(BIN)/ruff check planner app perception speech tests
+	$(BIN)/mypy planner app perception speech
+	$(BIN)/lint-imports

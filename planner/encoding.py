@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Iterable
 from importlib import resources
+from importlib.resources.abc import Traversable
 
 import clingo
+
+from planner.resources import encoding_dir
 
 CONCERNS = (
     "state",
@@ -21,14 +25,20 @@ CONCERNS = (
 )
 
 
-def program_text(skip: Iterable[str] = ()) -> str:
-    """The encodings concatenated; `skip` leaves concerns out (for ablation tests)."""
+class EncodingError(RuntimeError):
+    """clingo refused an encoding; the message has clingo's own lines (file:line:column)."""
+
+
+def encoding_files(
+    skip: Iterable[str] = (), directory: Traversable | None = None
+) -> list[Traversable]:
+    """The encodings in load order; `skip` leaves concerns out (for ablation tests)."""
     skipped = set(skip)
     unknown = skipped - set(CONCERNS)
     if unknown:
         raise ValueError(f"unknown concern(s): {', '.join(sorted(unknown))}")
-    base = resources.files("planner") / "asp"
-    return "\n".join((base / f"{name}.lp").read_text() for name in CONCERNS if name not in skipped)
+    base = directory if directory is not None else encoding_dir()
+    return [base / f"{name}.lp" for name in CONCERNS if name not in skipped]
 
 
 class FeasibilityContext:
@@ -50,16 +60,46 @@ def ground(
     *,
     skip: Iterable[str] = (),
     options: Iterable[str] = (),
+    directory: Traversable | None = None,
 ) -> clingo.Control:
-    """Ground the domain once for `horizon` steps; later solves only change externals."""
-    ctl = clingo.Control(["-c", f"h={horizon}", *options], logger=_quiet)
-    ctl.add("base", [], program_text(skip))
-    ctl.add("base", [], "\n".join(f"{f}." for f in facts))
-    ctl.ground([("base", [])], context=context)
+    """Ground the domain once for `horizon` steps; later solves only change externals.
+
+    Each encoding is loaded from its own file, so clingo's messages name it
+    (`.../state.lp:12:3-9: error: syntax error ...`); `directory` replaces the
+    shipped encodings (tests break a copy).
+    """
+    skipped = tuple(skip)
+    messages = _Messages(expect_undefined=bool(skipped))
+    ctl = clingo.Control(["-c", f"h={horizon}", *options], logger=messages)
+    try:
+        for file in encoding_files(skipped, directory):
+            with resources.as_file(file) as path:
+                ctl.load(str(path))
+        ctl.add("base", [], "\n".join(f"{f}." for f in facts))
+        ctl.ground([("base", [])], context=context)
+    except RuntimeError as err:
+        raise EncodingError(messages.errors_or(str(err))) from err
     return ctl
 
 
-def _quiet(code: clingo.MessageCode, message: str) -> None:
-    # Info messages about atoms that never occur are expected when concerns
-    # are skipped; real errors raise from clingo itself.
-    return None
+class _Messages:
+    """clingo's logger: keeps errors for the exception, logs warnings."""
+
+    def __init__(self, *, expect_undefined: bool) -> None:
+        # With concerns skipped, atoms that only those concerns derive never occur.
+        self.expect_undefined = expect_undefined
+        self.errors: list[str] = []
+
+    def __call__(self, code: clingo.MessageCode, message: str) -> None:
+        text = message.rstrip()
+        if code in _ERRORS or ": error:" in text:
+            self.errors.append(text)
+        elif not (self.expect_undefined and code == clingo.MessageCode.AtomUndefined):
+            _log.warning("clingo: %s", text)
+
+    def errors_or(self, fallback: str) -> str:
+        return "\n".join(self.errors) if self.errors else fallback
+
+
+_ERRORS = {clingo.MessageCode.RuntimeError, clingo.MessageCode.OperationUndefined}
+_log = logging.getLogger(__name__)

@@ -14,18 +14,17 @@ and a top. Its three tables each grow one quantity from 2 to 6:
 
 The paper does not publish its instance files, so this is our reading of its
 "Problem Instances" paragraph; n = 7..10 continues each family past the
-paper. `python -m planner.paper DIR` writes every file; tests/test_paper.py
+paper. `tandem scenario paper DIR` writes every file; tests/test_paper.py
 checks that the committed files are exactly what this module produces.
 """
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
+
+from planner.scenario_sections import DEFAULT_REGION_X
 
 FAMILIES = ("U", "P", "R")
 PAPER_N = range(2, 7)  # the paper's tables: n = 2..6
@@ -37,14 +36,11 @@ WHAT = {
     "R": "parts reachable by the robot only",
 }
 
-# Region extents along the bench (metres) and whether the human reaches them;
-# the same three regions as static/scenarios/default.toml.
-REGIONS = (
-    ("robotOnly", 0.30, 0.65, False),
-    ("shared", 0.65, 1.00, True),
-    ("humanOnly", 1.00, 1.40, True),
-)
-EXTENT = {rid: (x0, x1) for rid, x0, x1, _ in REGIONS}
+# The default bench's regions along x, and whether the human reaches them;
+# the same three regions as the shipped default.toml.
+HUMAN_REACH = {"robotOnly": False, "shared": True, "humanOnly": True}
+EXTENT = DEFAULT_REGION_X
+REGIONS = tuple((rid, x0, x1, HUMAN_REACH[rid]) for rid, (x0, x1) in EXTENT.items())
 
 # A small model table: the top lies flat in the middle of the shared region,
 # within both arms' top-down reach (x <= ~0.85 m, field notes); legs stand
@@ -223,21 +219,3 @@ def scenario_toml(family: str, n: int) -> str:
 def generated_files(families: bool = True) -> dict[str, str]:
     """File name -> TOML text for every instance."""
     return {f"{instance_name(f, n)}.toml": scenario_toml(f, n) for f, n in all_instances(families)}
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m planner.paper", description="Write the paper's benchmark scenarios."
-    )
-    parser.add_argument("directory", help="where to write the .toml files (created if missing)")
-    args = parser.parse_args(argv)
-    out = Path(args.directory)
-    out.mkdir(parents=True, exist_ok=True)
-    for name, text in generated_files().items():
-        (out / name).write_text(text, encoding="utf-8")
-        print(out / name)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

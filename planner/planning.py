@@ -136,7 +136,7 @@ def _plan(
     if checks is not None:
         # Paths only for the actions the plan uses, once it is built: the solver
         # needs reachability alone.
-        from planner.feasibility.motions import add_motions
+        from planner.feasibility.plan_motions import add_motions
 
         t_motion = time.perf_counter()
         add_motions(plan, checks)

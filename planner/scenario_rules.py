@@ -9,11 +9,26 @@ instead of folding it into a root-level validation error.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterable
-from typing import TYPE_CHECKING
+from collections.abc import Iterable, Sequence
+from typing import Protocol
 
-if TYPE_CHECKING:
-    from planner.scenario_model import Part, Scenario
+from planner.scenario_sections import Feasibility, Goal, Part, Region, Robot
+
+
+class ScenarioSections(Protocol):
+    """What the rules read of a scenario (`scenario_model.Scenario` is one)."""
+
+    @property
+    def regions(self) -> Sequence[Region]: ...
+    @property
+    def robot(self) -> Robot: ...
+    @property
+    def feasibility(self) -> Feasibility: ...
+    @property
+    def parts(self) -> Sequence[Part]: ...
+    @property
+    def goal(self) -> Goal: ...
+    def part(self, part_id: str) -> Part: ...
 
 
 class FieldProblem(Exception):
@@ -36,7 +51,7 @@ _KIND_FIELDS: dict[str, tuple[str, ...]] = {
 _REQUIRED: dict[str, tuple[str, ...]] = {"leg": ("length", "shape"), "foot": ("shape",)}
 
 
-def check(s: Scenario) -> None:
+def check(s: ScenarioSections) -> None:
     """Raise `FieldProblem` for the first rule `s` breaks."""
     _unique("regions", [r.id for r in s.regions], "region", field="id")
     _unique("robot.manipulators", s.robot.manipulators, "manipulator")
@@ -51,7 +66,7 @@ def check(s: Scenario) -> None:
     goal_pairs(s)  # derives (and so checks) the final configuration
 
 
-def goal_pairs(s: Scenario) -> list[tuple[str, str]]:
+def goal_pairs(s: ScenarioSections) -> list[tuple[str, str]]:
     """The final configuration as (P, Q) pairs; raises `FieldProblem` if impossible."""
     if s.goal.table is not None:
         return _stable_table(s)
@@ -60,7 +75,7 @@ def goal_pairs(s: Scenario) -> list[tuple[str, str]]:
     return pairs
 
 
-def attachable_classes(s: Scenario) -> list[tuple[str, str]]:
+def attachable_classes(s: ScenarioSections) -> list[tuple[str, str]]:
     """(Cl, Cl2): a part of class Cl may be attached to a part of class Cl2."""
     pairs: set[tuple[str, str]] = set()
     for p in s.parts:
@@ -111,14 +126,14 @@ def _check_part(i: int, p: Part, regions: list[str]) -> None:
     )
 
 
-def _check_classes(s: Scenario) -> None:
+def _check_classes(s: ScenarioSections) -> None:
     known = sorted({p.class_name for p in s.parts})
     for i, p in enumerate(s.parts):
         for j, c in enumerate(p.attaches_to or []):
             _known(f"parts[{i}].attaches_to[{j}]", c, known, "class")
 
 
-def _check_feasibility(s: Scenario, regions: list[str]) -> None:
+def _check_feasibility(s: ScenarioSections, regions: list[str]) -> None:
     arms = s.robot.manipulators
     parts = [p.id for p in s.parts]
     for arm, listed in s.feasibility.reachable.items():
@@ -135,11 +150,11 @@ def _count(n: int, noun: str) -> str:
     return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
-def _index(s: Scenario, part_id: str) -> int:
+def _index(s: ScenarioSections, part_id: str) -> int:
     return next(i for i, p in enumerate(s.parts) if p.id == part_id)
 
 
-def _stable_table(s: Scenario) -> list[tuple[str, str]]:
+def _stable_table(s: ScenarioSections) -> list[tuple[str, str]]:
     """docs/scenario.md: the most common leg length on the top, a foot under each."""
     tops = [p for p in s.parts if p.kind == "top"]
     legs = [p for p in s.parts if p.kind == "leg"]
@@ -192,7 +207,7 @@ def _stable_table(s: Scenario) -> list[tuple[str, str]]:
     return pairs
 
 
-def _check_attachments(s: Scenario, pairs: list[tuple[str, str]]) -> None:
+def _check_attachments(s: ScenarioSections, pairs: list[tuple[str, str]]) -> None:
     known = [p.id for p in s.parts]
     attachable = set(attachable_classes(s))
     parent: dict[str, tuple[str, int]] = {}

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from planner.encoding import FeasibilityContext
+from planner.resources import scenario_path
 from planner.scenario import Scenario, parse_scenario
 from planner.solver import BranchSolver, SequentialPlan
 from planner.vocabulary import parse_action
 
-DEFAULT = Path(__file__).resolve().parents[1] / "static" / "scenarios" / "declared.toml"
+DEFAULT = scenario_path("declared.toml")
 
 
 def scenario(*edits: tuple[str, str]) -> Scenario:

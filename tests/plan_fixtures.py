@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import functools
 import json
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -12,10 +11,11 @@ from typing import Any
 
 from planner.plan import Plan
 from planner.planning import plan_scenario
+from planner.resources import scenario_dir
 from planner.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
-SCENARIOS = ROOT / "static" / "scenarios"
+SCENARIOS = scenario_dir()
 PAPER_NAMES = [f"paper-{i:02d}" for i in range(1, 16)]
 
 
@@ -43,9 +43,9 @@ def default_plan() -> Plan:
 
 
 def tandem_command() -> list[str]:
-    # The installed console script when the venv has one, else the same entry point.
-    script = shutil.which("tandem", path=str(Path(sys.executable).parent))
-    return [script] if script else [sys.executable, "-m", "app.cli"]
+    # This checkout's entry point (run from ROOT); the installed console script
+    # is tested on a built wheel by tests/test_packaging.py.
+    return [sys.executable, "-m", "app.cli"]
 
 
 def tandem(

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from planner.cli import main
+from app.cli.main import main
 from planner.feasibility import ReachResult, World, reachability_table, reachable_pairs
-from planner.feasibility.motion import plan_path
+from planner.feasibility.path_planner import plan_path
 from planner.feasibility.robot import HOME
 from planner.feasibility.scene import part_boxes, region_extents
 from planner.scenario import load_scenario, parse_scenario
@@ -203,7 +203,7 @@ def test_planning_takes_feasibility_from_geometry_when_asked() -> None:
 
 
 def test_plan_motions_are_collision_free_within_limits_and_continuous(tmp_path: Path) -> None:
-    from planner.feasibility.motions import joint_names
+    from planner.feasibility.plan_motions import joint_names
     from planner.plan import Motion
     from planner.planning import plan_scenario
     from planner.vocabulary import Hold, Unhold

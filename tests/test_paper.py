@@ -3,33 +3,25 @@
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from planner import benchmark, paper
+from app.benchmark import planner_benchmark
+from planner import paper
 from planner.scenario import load_scenario
+from tests.plan_fixtures import tandem
 
 ROOT = Path(__file__).resolve().parent.parent
 PAPER_DIR = ROOT / "static" / "scenarios" / "paper"
 PAPER_NAMES = [f"paper-{i:02d}" for i in range(1, 16)]
 
 
-def tandem(*args: str) -> subprocess.CompletedProcess[str]:
-    # The installed console script when the venv has one, else the same entry point.
-    script = shutil.which("tandem", path=str(Path(sys.executable).parent))
-    command = [script] if script else [sys.executable, "-m", "planner.cli"]
-    return subprocess.run([*command, *args], capture_output=True, text=True, cwd=ROOT, timeout=300)
-
-
 def test_files_on_disk_are_what_the_generator_writes() -> None:
     expected = paper.generated_files()
     on_disk = {p.name for p in PAPER_DIR.glob("*.toml")}
-    assert on_disk == set(expected), "run: python -m planner.paper static/scenarios/paper"
+    assert on_disk == set(expected), "run: tandem scenario paper static/scenarios/paper"
     for name, text in expected.items():
         assert (PAPER_DIR / name).read_text(encoding="utf-8") == text, name
 
@@ -41,8 +33,8 @@ def test_instance_names_follow_the_paper_numbering() -> None:
     assert paper.instance_name("P", 2) == "paper-06"
     assert paper.instance_name("R", 6) == "paper-15"
     assert paper.instance_name("R", 10) == "R10"
-    assert len(benchmark.instances()) == 27
-    assert len(benchmark.instances(families=False)) == 15
+    assert len(planner_benchmark.instances()) == 27
+    assert len(planner_benchmark.instances(families=False)) == 15
 
 
 @pytest.mark.parametrize("name", PAPER_NAMES)
@@ -72,12 +64,13 @@ def test_every_paper_instance_loads_and_grows_its_quantity(name: str) -> None:
 
 def test_paper_transcription_agrees_with_its_prose() -> None:
     # The paper's discussion quotes these cells of its tables.
-    assert (benchmark.PAPER[1].D, benchmark.PAPER[1].DN, benchmark.PAPER[1].L) == (25, 104, 17)
-    assert (benchmark.PAPER[5].D, benchmark.PAPER[5].DN, benchmark.PAPER[5].L) == (42, 511, 29)
-    assert [benchmark.PAPER[i].plan_s for i in (1, 5, 6, 10, 11, 15)] == [
+    table = planner_benchmark.PAPER
+    assert (table[1].D, table[1].DN, table[1].L) == (25, 104, 17)
+    assert (table[5].D, table[5].DN, table[5].L) == (42, 511, 29)
+    assert [table[i].plan_s for i in (1, 5, 6, 10, 11, 15)] == [
         588, 5873, 657, 6389, 422, 1090
     ]  # fmt: skip
-    assert (benchmark.PAPER[6].N, benchmark.PAPER[10].N, benchmark.PAPER[11].N) == (367, 1534, 249)
+    assert (table[6].N, table[10].N, table[11].N) == (367, 1534, 249)
 
 
 @pytest.mark.parametrize("name", ["paper-01", "paper-11"])
@@ -97,7 +90,7 @@ def test_bench_json_smoke() -> None:
     assert len(rows) == 1
     row = rows[0]
     assert set(row) == {
-        "instance", "family", "n", "paper_instance", *benchmark.STAT_KEYS,
+        "instance", "family", "n", "paper_instance", *planner_benchmark.STAT_KEYS,
         "first_branch_s", "plan_s", "runs_s", "checks_cold_s", "checks_cached_s", "solves",
         "check", "violations", "audit_s", "error", "paper", "ratio",
     }  # fmt: skip

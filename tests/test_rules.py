@@ -28,7 +28,7 @@ def test_safety_never_asks_help_with_a_dangerous_part(tmp_path: Path) -> None:
     path = tmp_path / "danger.toml"
     path.write_text(DEFAULT.read_text().replace(*edit))
     run = subprocess.run(
-        [sys.executable, "-m", "planner.cli", "plan", str(path), "--workers", "1"],
+        [sys.executable, "-m", "app.cli", "plan", str(path), "--workers", "1"],
         capture_output=True,
         text=True,
     )

@@ -138,7 +138,7 @@ def edit(old: str, new: str, text: str = BASE) -> str:
 def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.run(
-        [sys.executable, "-m", "planner.cli", *args],
+        [sys.executable, "-m", "app.cli", *args],
         cwd=cwd,
         env=env,
         capture_output=True,

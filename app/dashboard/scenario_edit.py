@@ -14,10 +14,11 @@ from typing import Any
 
 import tomli_w
 
+from planner.resources import find_scenario, scenario_dir
 from planner.scenario import ScenarioError, load_scenario, parse_scenario
 from planner.scenario_model import Scenario
 
-SCENARIO_DIR = Path(__file__).resolve().parents[2] / "static" / "scenarios"
+SCENARIO_DIR = scenario_dir()
 
 
 @dataclass
@@ -31,15 +32,13 @@ class Loaded:
 
 
 def shipped_scenarios() -> list[str]:
-    """Scenario files under static/scenarios, relative names, default first."""
+    """The shipped scenario files, relative names, default first."""
     names = sorted(str(p.relative_to(SCENARIO_DIR)) for p in SCENARIO_DIR.rglob("*.toml"))
     return sorted(names, key=lambda n: (n != "default.toml", n.count("/"), n))
 
 
 def load_file(path: str | Path) -> Loaded:
-    path = Path(path)
-    if not path.is_absolute() and not path.exists() and (SCENARIO_DIR / path).exists():
-        path = SCENARIO_DIR / path
+    path = find_scenario(path)
     try:
         scenario = load_scenario(path)
     except ScenarioError as err:

@@ -19,7 +19,7 @@ from typing import Any
 from planner.feasibility.scene import part_boxes, region_extents
 from planner.scenario_model import Scenario
 
-# Bump when reach.py, motion.py, robot.py or scene.py change what a check returns.
+# Bump when reach.py, path_planner.py, robot.py or scene.py change what a check returns.
 MODEL_VERSION = 3
 FILE_NAME = "feasibility.sqlite"
 

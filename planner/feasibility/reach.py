@@ -18,8 +18,8 @@ from typing import Literal
 import numpy as np
 
 from planner.feasibility._bullet import pb
-from planner.feasibility.motion import plan_path, seed_ompl
-from planner.feasibility.robot import ARMS, HOME, Robot, load_robot
+from planner.feasibility.path_planner import plan_path, seed_ompl
+from planner.feasibility.robot import ARMS, HOME, BaxterBody, load_robot
 from planner.feasibility.scene import PartBox, Scene, build_scene
 from planner.scenario_model import Scenario
 
@@ -65,7 +65,7 @@ class World:
         self.planner = planner
         self.time_limit = time_limit
         self.client = pb.connect(pb.DIRECT)
-        self.robot: Robot = load_robot(self.client, scenario.robot.base_pose)
+        self.robot: BaxterBody = load_robot(self.client, scenario.robot.base_pose)
         self.scene: Scene = build_scene(self.client, scenario)
         self._body_part = {b: pid for pid, b in self.scene.bodies.items()}
         self._reach_radius = {a: self._arm_length(a) for a in ARMS}

@@ -90,7 +90,7 @@ def resolved_urdf(in_prefix: str, name: str) -> Path:
 
 
 @dataclass
-class Robot:
+class BaxterBody:
     """A loaded Baxter: body id, joint indices and limits of each arm."""
 
     client: int
@@ -131,7 +131,7 @@ class Robot:
         )
 
 
-def load_robot(client: int, base_pose: list[float]) -> Robot:
+def load_robot(client: int, base_pose: list[float]) -> BaxterBody:
     """Load Baxter with a fixed base at (x, y, yaw) and filter its harmless self-contacts."""
     flags = (
         pb.URDF_USE_SELF_COLLISION
@@ -164,7 +164,7 @@ def load_robot(client: int, base_pose: list[float]) -> Robot:
         if jtype != pb.JOINT_FIXED:
             movable.append(j)
     arm_joints = {a: [joint[f"{a}_{s}"] for s in JOINT_SUFFIXES] for a in ARMS}
-    robot = Robot(
+    robot = BaxterBody(
         client=client,
         body=body,
         link=link,
@@ -202,7 +202,7 @@ def _descendants(body: int, client: int, root: int) -> set[int]:
     return out
 
 
-def _disable_harmless_pairs(robot: Robot) -> None:
+def _disable_harmless_pairs(robot: BaxterBody) -> None:
     """Pairs touching at home (and at the all-zero pose) are modelling artefacts."""
     pairs: set[tuple[int, int]] = set()
     for pose in (HOME, {a: [0.0] * 7 for a in ARMS}):

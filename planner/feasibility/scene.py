@@ -12,16 +12,11 @@ from dataclasses import dataclass
 
 from planner.feasibility._bullet import pb
 from planner.scenario_model import Part, Scenario
+from planner.scenario_sections import DEFAULT_REGION_X
 
 BENCH_TOP_Z = -0.05  # Baxter's base frame is ~0.93 m up; the bench top ~0.88 m
 BENCH_THICKNESS = 0.04
 BENCH_HALF_WIDTH = 0.70  # across the bench (y), metres
-# Extents along x measured in the field notes; used when a region has no `x`.
-DEFAULT_REGION_X = {
-    "robotOnly": (0.30, 0.65),
-    "shared": (0.65, 1.00),
-    "humanOnly": (1.00, 1.40),
-}
 # Legs lie across the bench (long along y) so they fit a 0.35 m deep region.
 DEFAULT_SIZE = {
     "top": (0.30, 0.50, 0.03),

@@ -1,21 +1,24 @@
-"""`tandem plan SCENARIO` and `tandem check PLAN.json`."""
+"""`tandem plan SCENARIO`: plan every contingency, print the statistics table."""
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
-from planner.audit import audit, format_report
-from planner.hcp import DeadEnd, Progress
+from planner.hcp import Progress
 from planner.plan import TABLE_HEADER, format_table, stats_row
 from planner.planning import plan_scenario
+from planner.resources import find_scenario
 from planner.scenario import load_scenario
 
 
-def register_plan(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", help="scenario file (TOML)")
+def register(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "input",
+        metavar="scenario",
+        help="scenario file (TOML), or a shipped one: default.toml, paper/U10.toml",
+    )
     parser.add_argument("-o", "--output", help="write the tandem-plan/1 JSON here")
     parser.add_argument("--dot", help="write the plan tree as Graphviz DOT here")
     parser.add_argument("--workers", type=int, default=0, help="worker processes (0: all cores)")
@@ -30,12 +33,7 @@ def register_plan(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--no-cache", action="store_true", help="check geometry afresh and store nothing"
     )
-    parser.set_defaults(run=run_plan)
-
-
-def register_check(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("plan", help="a tandem-plan/1 JSON file")
-    parser.set_defaults(run=run_check)
+    parser.set_defaults(run=run)
 
 
 def _progress_line(p: Progress) -> None:
@@ -51,19 +49,17 @@ def _progress_line(p: Progress) -> None:
     )
 
 
-def run_plan(args: argparse.Namespace) -> int:
-    scenario = load_scenario(args.scenario)
+def run(args: argparse.Namespace) -> int:
+    scenario = load_scenario(find_scenario(args.input))
     progress = None if args.quiet or not sys.stderr.isatty() else _progress_line
     try:
         cache_dir = ":memory:" if args.no_cache else args.cache_dir
         result = plan_scenario(
             scenario, workers=args.workers, progress=progress, cache_dir=cache_dir
         )
-    except DeadEnd as err:
-        print(f"{args.scenario}: no plan: {err}", file=sys.stderr)
-        return 1
     finally:
         if progress:
+            # End the progress line, also when a dead end escapes to main.
             print(file=sys.stderr)
     plan = result.plan
     if args.output:
@@ -80,17 +76,3 @@ def run_plan(args: argparse.Namespace) -> int:
         for i, (action, outcome) in enumerate(plan.first_branch(), 1):
             print(f"  {i:2d}. {action}" + (f"  -> {outcome}" if outcome is not None else ""))
     return 0
-
-
-def run_check(args: argparse.Namespace) -> int:
-    try:
-        doc = json.loads(Path(args.plan).read_text())
-    except (OSError, json.JSONDecodeError) as err:
-        print(f"{args.plan}: cannot read plan: {err}", file=sys.stderr)
-        return 2
-    if not isinstance(doc, dict):
-        print(f"{args.plan}: not a tandem-plan/1 document", file=sys.stderr)
-        return 2
-    violations = audit(doc)
-    print(f"{args.plan}: {format_report(violations)}")
-    return 1 if violations else 0

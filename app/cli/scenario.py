@@ -1,10 +1,13 @@
-"""`tandem scenario check FILE...`: validate scenario files."""
+"""`tandem scenario check FILE...` (validate scenario files) and
+`tandem scenario paper DIR` (write the paper's benchmark scenarios)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
+from planner import paper
 from planner.scenario import ScenarioError, load_scenario
 
 
@@ -13,6 +16,11 @@ def register(parser: argparse.ArgumentParser) -> None:
     check = sub.add_parser("check", help="validate scenario files (exit 2 if any is bad)")
     check.add_argument("files", nargs="+", metavar="FILE")
     check.set_defaults(run=_check)
+    write = sub.add_parser(
+        "paper", help="write the paper's benchmark scenarios (static/scenarios/paper)"
+    )
+    write.add_argument("directory", help="where to write the .toml files (created if missing)")
+    write.set_defaults(run=_write_paper)
 
 
 def _check(args: argparse.Namespace) -> int:
@@ -30,3 +38,12 @@ def _check(args: argparse.Namespace) -> int:
             f"{len(scenario.goal_pairs())} goal attachments)"
         )
     return status
+
+
+def _write_paper(args: argparse.Namespace) -> int:
+    out = Path(args.directory)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in paper.generated_files().items():
+        (out / name).write_text(text, encoding="utf-8")
+        print(out / name)
+    return 0

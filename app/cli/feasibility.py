@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 import time
 
+from app.cli.exit_codes import BadInput
 from planner.plan import format_table
+from planner.resources import find_scenario
 from planner.scenario import load_scenario
 
 
@@ -22,7 +24,7 @@ def register(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(find_scenario(args.scenario))
     # Imported here so the other subcommands never pay for pybullet and OMPL.
     from planner.feasibility import reachability_table
     from planner.feasibility.robot import RobotModelMissing
@@ -33,8 +35,9 @@ def run(args: argparse.Namespace) -> int:
             scenario, planner=args.planner, time_limit=args.time_limit, seed=args.seed
         )
     except (RobotModelMissing, ValueError) as err:
-        print(f"{args.scenario}: feasibility: {err}")
-        return 2
+        # Caught here, not in main's table: naming RobotModelMissing there would
+        # load pybullet for every subcommand.
+        raise BadInput(f"{args.scenario}: feasibility: {err}") from err
     total = time.perf_counter() - start
     rows: list[tuple[str, ...]] = [
         (

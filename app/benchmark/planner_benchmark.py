@@ -1,6 +1,7 @@
 """The paper's benchmark: plan, audit and time every instance beside the paper's numbers.
 
-The instances are the scenario files of `planner.paper` (static/scenarios/paper).
+The instances are the scenario files of `planner.paper` (the shipped
+`paper/` scenarios). `tandem bench` (app/cli/benchmark.py) runs and prints it.
 Each is planned in-process with `plan_scenario`, audited with
 `planner.audit.audit`, and its tree statistics are set beside Tables 1-3 of
 Rizwan, Patoglu and Erdem (TPLP), transcribed in `PAPER` below.
@@ -19,12 +20,12 @@ from typing import Any
 from planner import paper
 from planner.audit import audit
 from planner.hcp import DeadEnd
-from planner.plan import format_table
+from planner.plan import STAT_KEYS, format_table
 from planner.planning import plan_scenario
+from planner.resources import scenario_path
 from planner.scenario import Scenario, load_scenario, parse_scenario
 
-# The committed files; absent when the package is installed without the repository.
-SCENARIO_DIR = Path(__file__).resolve().parent.parent / "static" / "scenarios" / "paper"
+SCENARIO_DIR = scenario_path("paper")
 
 
 @dataclass(frozen=True)
@@ -100,8 +101,6 @@ PAPER: dict[int, PaperRow] = {
 }
 # fmt: on
 
-STAT_KEYS = ("L", "D", "A", "S", "C", "K", "O", "CF", "R", "DN", "BF", "N", "dag_nodes")
-
 
 @dataclass(frozen=True)
 class Instance:
@@ -136,7 +135,7 @@ def load(instance: Instance, directory: Path = SCENARIO_DIR) -> Scenario:
 
 
 @dataclass
-class BenchRow:
+class BenchmarkRow:
     instance: Instance
     stats: dict[str, int] = field(default_factory=dict)
     first_branch_s: float = 0.0  # median over the runs
@@ -187,14 +186,14 @@ class BenchRow:
 
 def run_instance(
     instance: Instance, *, workers: int = 0, repeat: int = 1, directory: Path = SCENARIO_DIR
-) -> BenchRow:
+) -> BenchmarkRow:
     """Plans `instance` `repeat` times; statistics and audit come from the median-time run.
 
     Each run starts with an empty check cache (a cold run, timed), then plans again
     with the cache it filled, which gives the cached check time.
     """
     scenario = load(instance, directory)
-    row = BenchRow(instance)
+    row = BenchmarkRow(instance)
     runs = []
     cold: list[float] = []
     cached: list[float] = []
@@ -242,8 +241,8 @@ def run(
     workers: int = 0,
     repeat: int = 1,
     directory: Path = SCENARIO_DIR,
-    report: Callable[[int, BenchRow], None] | None = None,
-) -> list[BenchRow]:
+    report: Callable[[int, BenchmarkRow], None] | None = None,
+) -> list[BenchmarkRow]:
     rows = []
     for i, instance in enumerate(selected):
         row = run_instance(instance, workers=workers, repeat=repeat, directory=directory)
@@ -267,7 +266,7 @@ def _d(stats: dict[str, int] | PaperRow) -> str:
     return f"{stats['D']}={stats['A']}+{stats['S']}+{stats['C']}"
 
 
-def table_row(row: BenchRow) -> tuple[str, ...]:
+def table_row(row: BenchmarkRow) -> tuple[str, ...]:
     inst = row.instance
     s = row.stats
     ours: tuple[str, ...]
@@ -289,7 +288,7 @@ def table_row(row: BenchRow) -> tuple[str, ...]:
     return (inst.name, f"{inst.family}{inst.n}", *ours, row.check, "|", *theirs, ratio)
 
 
-def summary(rows: Sequence[BenchRow], repeat: int = 1) -> list[str]:
+def summary(rows: Sequence[BenchmarkRow], repeat: int = 1) -> list[str]:
     lines = []
     planned = [r for r in rows if r.stats]
     ours = [r for r in planned if r.paper is not None]
@@ -329,7 +328,7 @@ def summary(rows: Sequence[BenchRow], repeat: int = 1) -> list[str]:
     return lines
 
 
-def report_text(rows: Sequence[BenchRow], repeat: int = 1, workers: int = 0) -> str:
+def report_text(rows: Sequence[BenchmarkRow], repeat: int = 1, workers: int = 0) -> str:
     legend = (
         "Columns after | are the paper's (Rizwan, Patoglu, Erdem, Tables 1-3; p.C = confirm); "
         "ratio = paper plan s / our plan s."

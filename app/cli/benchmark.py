@@ -1,4 +1,4 @@
-"""`tandem bench`: the paper's benchmark (planner/benchmark.py) on the command line."""
+"""`tandem bench`: the paper's benchmark (`app.benchmark.planner_benchmark`) on the command line."""
 
 from __future__ import annotations
 
@@ -6,8 +6,9 @@ import argparse
 import json
 import sys
 
-from planner import benchmark
-from planner.benchmark import BenchRow
+from app.benchmark import planner_benchmark
+from app.benchmark.planner_benchmark import BenchmarkRow
+from app.cli.exit_codes import BadInput
 
 
 def register(parser: argparse.ArgumentParser) -> None:
@@ -29,21 +30,19 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--repeat", type=int, default=1, metavar="K", help="plan each instance K times (median)"
     )
-    parser.set_defaults(run=run_bench)
+    parser.set_defaults(run=run)
 
 
-def run_bench(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     if args.repeat < 1 or args.workers < 0:
-        print("tandem bench: --repeat must be >= 1 and --workers >= 0", file=sys.stderr)
-        return 2
+        raise BadInput("tandem bench: --repeat must be >= 1 and --workers >= 0")
     try:
-        selected = benchmark.instances(args.only, families=not args.no_families)
+        selected = planner_benchmark.instances(args.only, families=not args.no_families)
     except KeyError as err:
-        known = ", ".join(i.name for i in benchmark.instances())
-        print(f"tandem bench: unknown instance {err.args[0]} (known: {known})", file=sys.stderr)
-        return 2
+        known = ", ".join(i.name for i in planner_benchmark.instances())
+        raise BadInput(f"tandem bench: unknown instance {err.args[0]} (known: {known})") from err
 
-    def progress(i: int, row: BenchRow) -> None:
+    def progress(i: int, row: BenchmarkRow) -> None:
         # On stderr, so --json output stays parseable while a long run shows signs of life.
         done = f"{row.plan_s:.2f} s" if row.stats else "-"
         print(
@@ -52,10 +51,12 @@ def run_bench(args: argparse.Namespace) -> int:
             flush=True,
         )
 
-    rows = benchmark.run(selected, workers=args.workers, repeat=args.repeat, report=progress)
+    rows = planner_benchmark.run(
+        selected, workers=args.workers, repeat=args.repeat, report=progress
+    )
     if args.json:
         print(json.dumps([r.as_dict() for r in rows], indent=1))
     else:
-        print(benchmark.report_text(rows, repeat=args.repeat, workers=args.workers))
+        print(planner_benchmark.report_text(rows, repeat=args.repeat, workers=args.workers))
     # Non-zero when any instance has no plan or an unsound one, so `make bench` notices.
     return 1 if any(r.error or r.violations for r in rows) else 0

@@ -5,12 +5,16 @@ from __future__ import annotations
 import argparse
 import time
 
+from app.cli.exit_codes import BadInput
+
 
 def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
     parser.add_argument("--port", type=int, default=8080, help="port (default 8080)")
     parser.add_argument(
-        "--scenario", default="default.toml", help="scenario file, or a name under static/scenarios"
+        "--scenario",
+        default="default.toml",
+        help="scenario file, or a shipped one: default.toml, paper/U10.toml",
     )
     parser.add_argument("--workers", type=int, default=0, help="planner processes (0: all cores)")
     parser.add_argument(
@@ -29,8 +33,9 @@ def run(args: argparse.Namespace) -> int:
             args.host, args.port, args.scenario, workers=args.workers, data_dir=args.data_dir
         )
     except OSError as err:
-        print(f"dashboard: cannot listen on {args.host}:{args.port}: {err.strerror or err}")
-        return 2
+        raise BadInput(
+            f"dashboard: cannot listen on {args.host}:{args.port}: {err.strerror or err}"
+        ) from err
     print(f"Tandem dashboard on http://{args.host}:{args.port}  (Ctrl-C to stop)", flush=True)
     try:
         while True:

@@ -1,5 +1,5 @@
 """Dashboard benchmark: page load to interactive, and the server-side cost of a click
-on a node of a large plan. `python -m app.dashboard.bench [SCENARIO]` prints a table.
+on a node of a large plan. `python -m app.benchmark.dashboard_benchmark [SCENARIO]` prints a table.
 
 Times are medians; a click is what the scene's on_click handler runs: select the
 node, write its details, move the highlight, place parts and arms for that node.
@@ -15,14 +15,14 @@ import statistics
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 
 from app.dashboard.server import Dashboard
 from planner.plan import format_table
 from planner.planning import plan_scenario
+from planner.resources import scenario_path
 from planner.scenario import load_scenario
 
-DEFAULT = Path(__file__).resolve().parents[2] / "static" / "scenarios" / "paper" / "U10.toml"
+DEFAULT = scenario_path("paper/U10.toml")
 
 
 def _port() -> int:
@@ -55,7 +55,7 @@ def page_loads(dashboard: Dashboard, runs: int) -> list[float]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m app.dashboard.bench")
+    parser = argparse.ArgumentParser(prog="python -m app.benchmark.dashboard_benchmark")
     parser.add_argument("scenario", nargs="?", default=str(DEFAULT))
     parser.add_argument("--clicks", type=int, default=200)
     parser.add_argument("--loads", type=int, default=5)

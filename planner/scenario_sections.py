@@ -1,0 +1,149 @@
+"""Pydantic models of the sections of a scenario file (docs/scenario.md).
+
+They check types and per-field syntax only; `scenario_model.Scenario` puts
+them together and runs the cross-field `scenario_rules`, which read these
+sections (so the rules need not import the scenario that calls them).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Annotated, Literal
+
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
+
+_CONST = re.compile(r"[a-z][A-Za-z0-9_]*")
+_WORD = re.compile(r"[A-Za-z0-9_]+")
+
+
+def _const_id(value: str) -> str:
+    # Ids become ASP constants verbatim, so anything else would break the encoding.
+    if not _CONST.fullmatch(value):
+        raise ValueError(
+            f"bad id {value!r}: expected a lowercase letter followed by letters, digits or _"
+        )
+    if value == "not":  # the one bare keyword of clingo's input language
+        raise ValueError("bad id 'not': it is a keyword of ASP")
+    return value
+
+
+def _word(value: str) -> str:
+    # Shapes end up inside class constants (`leg_<shape>`), so they must be one word.
+    if not _WORD.fullmatch(value):
+        raise ValueError(f"bad word {value!r}: expected letters, digits or _ only")
+    return value
+
+
+def _one_line(value: str) -> str:
+    # The name is echoed in one-line reports and plan headers.
+    if not value.strip() or any(c in value for c in "\r\n"):
+        raise ValueError("expected one non-empty line of text")
+    return value
+
+
+ConstId = Annotated[str, AfterValidator(_const_id)]
+OneLine = Annotated[str, AfterValidator(_one_line)]
+Word = Annotated[str, AfterValidator(_word)]
+Extent = Annotated[list[float], Field(min_length=2, max_length=2)]
+Pose = Annotated[list[float], Field(min_length=3, max_length=3)]
+Pair = Annotated[list[ConstId], Field(min_length=2, max_length=2)]
+PartKind = Literal["top", "leg", "foot", "other"]
+
+
+# Extents along x (metres) of the three regions of the default bench, measured in
+# the field notes: used when a region has no `x`, and by the paper's instances.
+DEFAULT_REGION_X: dict[str, tuple[float, float]] = {
+    "robotOnly": (0.30, 0.65),
+    "shared": (0.65, 1.00),
+    "humanOnly": (1.00, 1.40),
+}
+# How many times the human may pick a part up unasked in one execution.
+DEFAULT_INITIATIVE = 1
+
+
+class StrictModel(BaseModel):
+    # strict: TOML has real types, so "yes" for a boolean is a mistake, not a
+    # value to coerce; forbid: a misspelt optional key must not pass silently.
+    model_config = ConfigDict(strict=True, extra="forbid", frozen=True)
+
+
+class Preferences(StrictModel):
+    safety: Literal["relaxed", "normal", "strict"] = "normal"
+    verbosity: Literal["terse", "normal", "chatty"] = "normal"
+
+
+class Region(StrictModel):
+    id: ConstId
+    x: Extent | None = None
+    # Required on purpose: guessing "out of reach" would hide the human from safety.
+    human_reach: bool
+
+
+class Robot(StrictModel):
+    manipulators: Annotated[list[ConstId], Field(min_length=1)] = ["left", "right"]
+    base_pose: Pose = [0.0, 0.0, 0.0]
+
+
+class Human(StrictModel):
+    name: str = "teammate"
+    initiative: int = Field(default=DEFAULT_INITIATIVE, ge=0, le=3)
+
+
+class Feasibility(StrictModel):
+    source: Literal["declared", "geometry"] = "geometry"
+    reachable: dict[str, list[str]] = {}
+    unreachable_parts: dict[str, list[str]] = {}
+
+    @model_validator(mode="before")
+    @classmethod
+    def _declared_when_tabled(cls, data: object) -> object:
+        # Geometry is the default; a file that writes a table means that table.
+        if isinstance(data, dict) and "source" not in data:
+            tabled = "reachable" in data or "unreachable_parts" in data
+            return {**data, "source": "declared" if tabled else "geometry"}
+        return data
+
+
+class Part(StrictModel):
+    id: ConstId
+    kind: PartKind
+    region: str
+    connections: list[ConstId] | None = None
+    pose: Pose | None = None
+    size: Pose | None = None
+    marker: Annotated[int, Field(ge=0)] | None = None
+    length: Word | None = None
+    shape: Word | None = None
+    dangerous: bool = False
+    class_: ConstId | None = Field(default=None, alias="class")
+    attaches_to: list[ConstId] | None = None
+
+    @property
+    def class_name(self) -> str:
+        """The ASP class; only meaningful once the scenario checks have passed."""
+        if self.kind == "top":
+            return "top"
+        if self.kind in ("leg", "foot"):
+            return f"{self.kind}_{self.shape}"
+        return self.class_ or ""
+
+    @property
+    def connection_points(self) -> list[str]:
+        if self.connections is not None:
+            return list(self.connections)
+        return ["foot"] if self.kind == "leg" else []
+
+    @property
+    def movable(self) -> bool:
+        return self.kind != "top"
+
+
+class Goal(StrictModel):
+    table: Literal["stable"] | None = None
+    attachments: Annotated[list[Pair], Field(min_length=1)] | None = None
+
+    @model_validator(mode="after")
+    def _exactly_one(self) -> Goal:
+        if (self.table is None) == (self.attachments is None):
+            raise ValueError("expected exactly one of `table` or `attachments`")
+        return self
