@@ -1,0 +1,262 @@
+"""Answers to the robot's questions by voice: speak, listen, recognise, decide.
+
+`VoiceSource` is the `OutcomeSource` for the yes/no questions (askHelp,
+offerHelp, confirmAttach). At such a node it speaks the node's sentence
+(`speech.synthesis.synthesize`), listens on an `AudioSource` (microphone, WAV
+files, or the simulated voice) and hands the audio to a closed-grammar
+`Recognizer`. A refused result (silence, low confidence, out of grammar,
+ambiguous) makes it ask once more; a second refusal is "no answer" (None), so
+a `FallbackSource` takes the answer from clicks (or, headless, from a random
+or expected choice). A misheard answer would send the plan down the wrong
+branch, so only what the recogniser accepted ever becomes an outcome.
+
+Every attempt is kept per node (`attempts`), with the words heard, the
+confidence and why it was refused, so a session can say whether an answer
+came from the voice or, after which refusals, from the fallback.
+
+`SimulatedSpeaker` is the simulated human's mouth: told that the robot asked,
+it chooses an answer among the node's options (seeded random, or a script)
+and says one of the language's phrases for it through `SimulatedVoice`. It
+never answers the node itself; the recogniser decides what it said.
+"""
+
+from __future__ import annotations
+
+import random
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from app.execution import ExecutionEvent
+from app.outcomes import Outcome
+from planner.plan import PlanNode
+from planner.vocabulary import QUESTIONS
+from speech.languages import Language, language
+from speech.recognition import Heard, Recognizer
+from speech.sources import AudioSource, SimulatedVoice
+from speech.synthesis import Engine, synthesize
+
+ANSWERS = ("yes", "no")
+
+# Told (node_id, node, options) once the robot has spoken a question and
+# before it listens, on every attempt: how a simulated human knows when to speak.
+QuestionListener = Callable[[str, PlanNode, Sequence[str]], None]
+
+
+def is_question(node: PlanNode, options: Sequence[str]) -> bool:
+    """A yes/no question to the human: the only nodes a voice can answer."""
+    return (
+        node.action is not None
+        and node.action.name in QUESTIONS
+        and bool(options)
+        and set(options) <= set(ANSWERS)
+    )
+
+
+@dataclass(frozen=True)
+class Spoken:
+    """One sentence the robot said, and the engine that said it."""
+
+    node_id: str
+    text: str
+    engine: str
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """One ask-and-listen at a node: what was heard and what it was taken to mean."""
+
+    node_id: str
+    number: int  # 1 for the first ask, 2 for the second
+    words: tuple[str, ...]
+    confidence: float
+    meaning: str | None  # "yes"/"no" when accepted
+    reason: str | None  # why it was refused (None when accepted)
+    origin: str = ""  # where the audio came from ("microphone", a file, "simulated:...")
+
+    @property
+    def accepted(self) -> bool:
+        return self.meaning is not None
+
+    @property
+    def heard(self) -> str:
+        return " ".join(self.words)
+
+
+class VoiceSource:
+    """Yes/no answers heard through `audio` and a closed grammar for the language.
+
+    `recognizer` may be shared (the model is costly to load); without one a
+    `Recognizer` for `language_code` is made. `engine` is the speech engine
+    ("auto": gTTS when its service answers, else espeak-ng). `tries` is how
+    many times a question is asked before giving up to the fallback.
+    """
+
+    name = "voice"
+
+    def __init__(
+        self,
+        language_code: str | Language,
+        audio: AudioSource,
+        recognizer: Recognizer | None = None,
+        engine: Engine = "auto",
+        cache_dir: Path | None = None,
+        listen_timeout_s: float = 5.0,
+        tries: int = 2,
+        on_question: QuestionListener | None = None,
+    ) -> None:
+        self.language = (
+            language_code if isinstance(language_code, Language) else language(language_code)
+        )
+        self.recognizer = recognizer if recognizer is not None else Recognizer(self.language)
+        if self.recognizer.language.code != self.language.code:
+            raise ValueError(
+                f"the recogniser hears {self.recognizer.language.code}, "
+                f"the questions are asked in {self.language.code}"
+            )
+        self.audio = audio
+        self.engine: Engine = engine
+        self.cache_dir = cache_dir
+        self.listen_timeout_s = listen_timeout_s
+        self.tries = tries
+        self.on_question = on_question
+        self.spoken: list[Spoken] = []
+        self.attempts: dict[str, list[Attempt]] = {}
+        self.last_heard: Attempt | None = None
+        self._interrupted = threading.Event()
+
+    # -- speaking -------------------------------------------------------------
+
+    def speak(self, node_id: str, text: str) -> Spoken:
+        """Says `text` and records which engine said it; `SynthesisError` if none could."""
+        utterance = synthesize(text, self.language, self.engine, self.cache_dir)
+        line = Spoken(node_id, text, utterance.engine)
+        self.spoken.append(line)
+        return line
+
+    def narrate(self, event: ExecutionEvent) -> None:
+        """An executor listener: speaks the sentences that ask nothing (requests, notices).
+
+        Questions are spoken by `choose` itself, before listening, so they are
+        skipped here; otherwise they would be said twice.
+        """
+        if event.kind == "communication" and event.outcome is None and event.text:
+            self.speak(event.node, event.text)
+
+    # -- answering ------------------------------------------------------------
+
+    def interrupt(self) -> None:
+        """The next (or current, between attempts) `choose` gives up at once."""
+        self._interrupted.set()
+
+    def choose(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Outcome | None:
+        if not is_question(node, options) or not node.say:
+            return None  # sensing and silent nodes are for other sources
+        records = self.attempts.setdefault(node_id, [])
+        for number in range(1, self.tries + 1):
+            if self._interrupted.is_set():
+                self._interrupted.clear()
+                return None
+            self.speak(node_id, node.say)
+            if self.on_question is not None:
+                self.on_question(node_id, node, options)
+            attempt = self._listen(node_id, number)
+            records.append(attempt)
+            self.last_heard = attempt
+            if attempt.meaning is not None and attempt.meaning in options:
+                return Outcome(
+                    attempt.meaning, self.name, attempt.confidence, text=f"heard '{attempt.heard}'"
+                )
+        return None  # refused every time: the fallback answers
+
+    def _listen(self, node_id: str, number: int) -> Attempt:
+        recording = self.audio.listen(self.listen_timeout_s)
+        if recording is None:
+            # Nothing came within the timeout: the same refusal as a silent clip.
+            return Attempt(node_id, number, (), 0.0, None, "silence")
+        heard: Heard = self.recognizer.recognize(recording.samples, recording.rate)
+        return Attempt(
+            node_id,
+            number,
+            heard.words,
+            heard.confidence,
+            heard.meaning,
+            heard.reason,
+            recording.origin,
+        )
+
+    # -- what happened ----------------------------------------------------------
+
+    def answered_by_voice(self, node_id: str) -> bool:
+        return any(a.accepted for a in self.attempts.get(node_id, ()))
+
+    def summary(self, node_id: str) -> str:
+        """One line for a session log: how the question at `node_id` was answered."""
+        tried = self.attempts.get(node_id, [])
+        if not tried:
+            return "not asked by voice"
+        parts = [
+            f"heard '{a.heard}' ({a.meaning})" if a.accepted else f"refused '{a.heard}': {a.reason}"
+            for a in tried
+        ]
+        return "; ".join(parts)
+
+
+@dataclass(frozen=True)
+class Said:
+    """What the simulated human chose to answer at a node, and the words it used."""
+
+    node_id: str
+    label: str
+    phrase: str
+
+
+@dataclass
+class SimulatedSpeaker:
+    """The simulated human answering the robot's questions aloud.
+
+    Seeded: at a question it chooses among the node's yes/no options at
+    random, or takes the next label of `script` while it lasts, and says one
+    of the language's phrases for that answer (chosen at random) into
+    `voice`. Asked again at the same node, it keeps its answer and may word
+    it differently, as a person repeating themselves would. `choices` keeps
+    its answer per node, so agreement with what was recognised can be counted.
+    """
+
+    voice: SimulatedVoice
+    seed: int | None = None
+    script: Sequence[str] = ()
+    choices: dict[str, str] = field(default_factory=dict)
+    said: list[Said] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self._random = random.Random(self.seed)
+        self._script: Iterator[str] = iter(self.script)
+
+    def __call__(self, node_id: str, node: PlanNode, options: Sequence[str]) -> None:
+        self.hear(node_id, node, options)
+
+    def hear(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Said:
+        """The robot asked at `node_id`: choose (once per node) and say the answer."""
+        label = self.choices.get(node_id)
+        if label is None:
+            label = self._choose(options)
+            self.choices[node_id] = label
+        words = self.voice.language.yes_words if label == "yes" else self.voice.language.no_words
+        phrase = self._random.choice(words)
+        self.voice.say(phrase)
+        said = Said(node_id, label, phrase)
+        self.said.append(said)
+        return said
+
+    def _choose(self, options: Sequence[str]) -> str:
+        answers = [o for o in options if o in ANSWERS]
+        if not answers:
+            raise ValueError(f"no yes/no answer among {', '.join(options)}")
+        scripted = next(self._script, None)
+        if scripted is not None:
+            if scripted not in answers:
+                raise ValueError(f"scripted answer '{scripted}' is not one of {', '.join(answers)}")
+            return scripted
+        return self._random.choice(answers)
