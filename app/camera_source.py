@@ -1,0 +1,234 @@
+"""The camera as an outcome source: what it sees answers the sensing nodes.
+
+`CameraSource.choose` reads frames through `BenchPerception` until the world
+estimate has been stable for a few frames, then maps it onto one of the node's
+outcome labels (`outcome_of`). It has no answer (None, so the fallback answers)
+at a node that is not a sensing node, when the estimate does not settle before
+the timeout or the frames end, and when what it sees fits none of the options;
+`last_observation` says which, for the panel. With a simulated human, the human
+acts first, and the camera then has to see what it did.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from app.outcomes import Node, Outcome, describe
+from app.simulated_human import SimulatedHuman
+from perception.frames import Frame, FrameSource
+from perception.pipeline import BenchPerception
+from perception.world import Placement, Where, WorldEstimate
+from planner.vocabulary import (
+    Action,
+    SenseHumanAttachingWhere,
+    SenseHumanHolding,
+    SenseHumanHoldingWhichPart,
+    SenseHumanUnholding,
+)
+
+JPEG_WIDTH = 320  # px: enough to recognise the bench in a review, a few kB each
+JPEG_QUALITY = 80
+
+
+@dataclass(frozen=True)
+class Reading:
+    """An estimate mapped onto a node: the label it fits (or None, and why)."""
+
+    label: str | None
+    confidence: float
+    reason: str
+
+
+@dataclass(frozen=True)
+class CameraObservation:
+    """What the camera made of a node: the estimate that decided it and how."""
+
+    node_id: str
+    action: str | None
+    world: WorldEstimate | None
+    label: str | None
+    reason: str
+    frames: int  # frames read at this node
+    seconds: float
+
+
+def is_sensing(action: Action | None) -> bool:
+    return isinstance(
+        action,
+        SenseHumanHolding | SenseHumanHoldingWhichPart | SenseHumanUnholding
+        | SenseHumanAttachingWhere,
+    )
+
+
+def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[str]) -> Reading:
+    """The outcome of a sensing `action` that `world` shows, if it is one of `options`."""
+    human = world.human
+    match action:
+        case SenseHumanHolding():
+            label = "yes" if human.holding else "no"
+            words = (
+                f"the human holds {', '.join(human.holding)}"
+                if human.holding
+                else "the human's hands are free"
+            )
+            return _fit(label, human.confidence, words, options)
+        case SenseHumanHoldingWhichPart():
+            if not human.holding:
+                return Reading(None, human.confidence, "the human's hands look free")
+            held = [p for p in human.holding if p in options]
+            if not held:
+                return Reading(
+                    None, human.confidence,
+                    f"the human holds {', '.join(human.holding)}, not one of the options",
+                )
+            return Reading(held[0], world.parts[held[0]].confidence, f"the human holds {held[0]}")
+        case SenseHumanUnholding(part):
+            est = world.parts.get(part)
+            if est is None:
+                return Reading(None, 0.0, f"{part} is not on this bench")
+            if est.where is Where.HELD_BY_HUMAN:
+                return _fit("no", est.confidence, f"{part} is in the human's hands", options)
+            if est.where in (Where.ON_BENCH, Where.ATTACHED):
+                return _fit("yes", est.confidence, f"{part} is {_where(est.placement)}", options)
+            return Reading(None, est.confidence, f"{part} is {_where(est.placement)}")
+        case SenseHumanAttachingWhere(part, onto):
+            est = world.parts.get(part)
+            if est is None:
+                return Reading(None, 0.0, f"{part} is not on this bench")
+            p = est.placement
+            if p.where is Where.ATTACHED and p.attached_to == onto and p.slot is not None:
+                return _fit(p.slot, est.confidence, f"{part} is on {onto} at {p.slot}", options)
+            return Reading(None, est.confidence, f"{part} is {_where(p)}, not on {onto}")
+    return Reading(None, 0.0, "not a sensing node")
+
+
+def _fit(label: str, confidence: float, words: str, options: Sequence[str]) -> Reading:
+    if label in options:
+        return Reading(label, confidence, words)
+    return Reading(None, confidence, f"{words}: '{label}' is not one of {', '.join(options)}")
+
+
+def _where(p: Placement) -> str:
+    match p.where:
+        case Where.ON_BENCH:
+            return f"on the bench in {p.region}"
+        case Where.HELD_BY_HUMAN:
+            return "in the human's hands"
+        case Where.HELD_BY_ROBOT:
+            return "in the robot's gripper"
+        case Where.ATTACHED:
+            return f"attached to {p.attached_to} at {p.slot}"
+    return "out of sight"
+
+
+def jpeg(frame: Frame, width: int = JPEG_WIDTH, quality: int = JPEG_QUALITY) -> bytes:
+    """A small JPEG of a frame, for the session store and the review."""
+    h, w = frame.image.shape[:2]
+    image: npt.NDArray[np.integer[Any] | np.floating[Any]] = frame.image
+    if w > width:
+        image = cv2.resize(image, (width, round(h * width / w)), interpolation=cv2.INTER_AREA)
+    ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality])
+    if not ok:
+        raise ValueError("cannot encode the frame as JPEG")
+    return bytes(data.tobytes())
+
+
+class CameraSource:
+    """Answers sensing nodes from what `frames` show, through `perception`.
+
+    At each node it reads at least `min_frames` fresh frames (so a change made
+    just before, by the human or the robot, has passed the tracker's and the
+    estimate's hysteresis), then until the estimate is stable; it gives up after
+    `max_frames` frames or `timeout_s` seconds. `record`, when a list, collects
+    every frame read (to write a video of the run).
+    """
+
+    name = "camera"
+
+    def __init__(
+        self,
+        frames: FrameSource,
+        perception: BenchPerception,
+        human: SimulatedHuman | None = None,
+        *,
+        min_frames: int | None = None,
+        max_frames: int = 120,
+        timeout_s: float = 10.0,
+        record: list[Frame] | None = None,
+    ) -> None:
+        self.frames = frames
+        self.perception = perception
+        self.human = human
+        if min_frames is None:
+            settle = (
+                perception.tracker.settings.confirm_frames
+                + perception.estimator.settings.hysteresis_frames
+            )
+            min_frames = settle + perception.estimator.settings.stable_frames
+        self.min_frames = min_frames
+        self.max_frames = max_frames
+        self.timeout_s = timeout_s
+        self.record = record
+        self.last_observation: CameraObservation | None = None
+        self.last_frame_jpeg: bytes | None = None
+        self.observations: list[CameraObservation] = []
+
+    def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
+        action = node.action
+        if not is_sensing(action):
+            return None
+        if self.human is not None:
+            self.human.act(node_id, node, options)
+        start = time.monotonic()
+        world: WorldEstimate | None = None
+        last: Frame | None = None
+        count = 0
+        reason = "no frames"
+        while count < self.max_frames:
+            if time.monotonic() - start > self.timeout_s:
+                reason = f"no stable view within {self.timeout_s:g} s"
+                break
+            frame = self.frames.read()
+            if frame is None:
+                reason = "the frames ended"
+                break
+            if self.record is not None:
+                self.record.append(frame)
+            count += 1
+            last = frame
+            world = self.perception.process(frame).world
+            if count >= self.min_frames and world.stable:
+                break
+        else:
+            reason = f"no stable view within {self.max_frames} frames"
+        seconds = time.monotonic() - start
+        if world is None or last is None or not world.stable:
+            self._keep(node_id, action, world, None, reason, count, seconds)
+            return None
+        reading = outcome_of(action, world, options)
+        self._keep(node_id, action, world, reading.label, reading.reason, count, seconds)
+        if reading.label is None:
+            return None
+        self.last_frame_jpeg = jpeg(last)
+        return Outcome(
+            reading.label, self.name, round(reading.confidence, 3),
+            f"{describe(action, reading.label)} (camera: {reading.reason})",
+        )
+
+    def _keep(
+        self, node_id: str, action: Action | None, world: WorldEstimate | None,
+        label: str | None, reason: str, frames: int, seconds: float,
+    ) -> None:
+        obs = CameraObservation(
+            node_id, None if action is None else str(action), world, label, reason, frames,
+            seconds,
+        )
+        self.last_observation = obs
+        self.observations.append(obs)
