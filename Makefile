@@ -28,6 +28,8 @@ test: $(STAMP) system
 bench: $(STAMP) system
 	$(BIN)/tandem bench
 	$(BIN)/python -m app.benchmark.dashboard_benchmark
+	$(BIN)/python -m perception.bench
+	$(BIN)/python -m speech.bench
 
 lint: $(STAMP)
 	$(BIN)/ruff check planner app perception speech tests

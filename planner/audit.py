@@ -28,9 +28,8 @@ from planner.domain_sim import (
     parse_facts,
     parse_state,
 )
+from planner.plan import FORMAT, STAT_KEYS  # the format's names; the checks are the audit's own
 
-FORMAT = "tandem-plan/1"
-STAT_KEYS = ("L", "D", "A", "S", "C", "K", "O", "CF", "R", "DN", "BF", "N", "dag_nodes")
 ROOT_PATH = "root"
 
 Child = tuple[str | None, str]  # (outcome label, node id)

@@ -11,7 +11,9 @@ from __future__ import annotations
 from collections import deque
 from typing import Any
 
-JOINTS = 7
+from planner.feasibility.arms import JOINT_SUFFIXES
+
+JOINTS = len(JOINT_SUFFIXES)
 MAX_STEP = 0.06  # radians between waypoints: paths are densified to 0.05
 TOLERANCE = 1e-3  # radians: the file rounds joints to 1e-4
 

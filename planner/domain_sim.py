@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
+from planner.scenario_sections import DEFAULT_INITIATIVE
 from planner.vocabulary import Term, TermError, constants, parse_term
 
 __all__ = ["Term", "TermError", "constants", "parse_term"]
@@ -97,7 +98,7 @@ class Facts:
     goals: list[tuple[str, str]] = field(default_factory=list)
     safety: str = "normal"
     verbosity: str = "normal"
-    initiative: int = 1  # how often the human may pick a part up unasked
+    initiative: int = DEFAULT_INITIATIVE  # how often the human may pick a part up unasked
 
 
 def parse_facts(items: object) -> tuple[Facts, list[str]]:

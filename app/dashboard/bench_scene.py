@@ -14,7 +14,8 @@ import yourdfpy
 from viser.extras import ViserUrdf
 
 from app.dashboard.world import WorldView
-from planner.feasibility.robot import ARMS, HOME, baxter_urdf, human_urdf
+from planner.feasibility.arms import ARMS, HOME, JOINT_SUFFIXES
+from planner.feasibility.robot import baxter_urdf, human_urdf
 from planner.feasibility.scene import (
     BENCH_HALF_WIDTH,
     BENCH_THICKNESS,
@@ -153,7 +154,7 @@ class BenchScene:
         cfg = np.zeros(len(names))
         for arm in ARMS:
             for suffix, value in zip(
-                ("s0", "s1", "e0", "e1", "w0", "w1", "w2"), arms[arm], strict=True
+                JOINT_SUFFIXES, arms[arm], strict=True
             ):
                 name = f"{arm}_{suffix}"
                 if name in names:

@@ -15,10 +15,11 @@ from typing import Any
 import viser
 
 from app.dashboard.stage import Events, ExecutionFinished, Stage
+from app.execution import RESULTS
 from app.store import SessionRecord, SessionStore, UnknownSession, iso
 
 ANY = "any"
-RESULTS = (ANY, "goal", "aborted", "interrupted", "dead-end")
+FILTERS = (ANY, *RESULTS)
 NONE = "(no sessions)"
 
 
@@ -39,7 +40,7 @@ class ReviewPanel:
         self.opened: int | None = None  # set once a session is fully on screen
         with gui.add_folder("Review sessions", expand_by_default=False):
             self.scenario_filter: Any = gui.add_text("Scenario", "")
-            self.result_filter: Any = gui.add_dropdown("Result", RESULTS)
+            self.result_filter: Any = gui.add_dropdown("Result", FILTERS)
             self.since_filter: Any = gui.add_text("Since (YYYY-MM-DD)", "")
             gui.add_button("Refresh list").on_click(lambda _: self.refresh())
             self.pick: Any = gui.add_dropdown("Session", [NONE])

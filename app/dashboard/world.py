@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from planner.feasibility.robot import HOME
+from planner.feasibility.arms import HOME
 from planner.feasibility.scene import BENCH_TOP_Z, PartBox
 from planner.plan import PlanNode
 from planner.vocabulary import Hands

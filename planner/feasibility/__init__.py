@@ -7,10 +7,31 @@
 
 from __future__ import annotations
 
-from planner.feasibility.cache import CheckCache
-from planner.feasibility.checks import BenchChecks
-from planner.feasibility.reach import PlannerName, ReachResult, Reason, World
-from planner.scenario_model import Scenario
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from planner.feasibility.cache import CheckCache
+    from planner.feasibility.checks import BenchChecks
+    from planner.feasibility.reach import PlannerName, ReachResult, Reason, World
+    from planner.scenario_model import Scenario
+
+# Loaded on first use: `planner.feasibility.arms` and `.scene` are plain data that
+# the dashboard reads without loading pybullet and OMPL.
+_LAZY = {
+    "BenchChecks": "planner.feasibility.checks",
+    "CheckCache": "planner.feasibility.cache",
+    "ReachResult": "planner.feasibility.reach",
+    "Reason": "planner.feasibility.reach",
+    "World": "planner.feasibility.reach",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "BenchChecks",
@@ -32,6 +53,8 @@ def reachability_table(
     cache: CheckCache | None = None,
 ) -> dict[tuple[str, str], ReachResult]:
     """Every (arm, part) pair, in file order, from `cache` where it has them."""
+    from planner.feasibility.checks import BenchChecks
+
     with BenchChecks(
         scenario, planner=planner, time_limit=time_limit, seed=seed, cache=cache
     ) as checks:

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from planner.feasibility.arms import ARMS, HOME
 from planner.feasibility.cache import CheckCache, geometry_key
 from planner.feasibility.reach import PlannerName, ReachResult, World
-from planner.feasibility.robot import ARMS, HOME
 from planner.scenario_model import Scenario
 
 Config = list[float]

@@ -12,16 +12,13 @@ at its grasp if the other arm brought the assembly to it. So
 
 from __future__ import annotations
 
+from planner.feasibility.arms import joint_names
 from planner.feasibility.checks import BenchChecks
-from planner.feasibility.robot import JOINT_SUFFIXES
 from planner.plan import Motion, Plan
 from planner.vocabulary import Action, Attach, Hands, Hold, Unhold
 
 DECIMALS = 4  # 0.1 mrad: far below what the arm can resolve; keeps plan files small
 
-
-def joint_names(arm: str) -> list[str]:
-    return [f"{arm}_{s}" for s in JOINT_SUFFIXES]
 
 
 def add_motions(plan: Plan, checks: BenchChecks) -> int:

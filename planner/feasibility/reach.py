@@ -18,8 +18,9 @@ from typing import Literal
 import numpy as np
 
 from planner.feasibility._bullet import pb
+from planner.feasibility.arms import ARMS, HOME
 from planner.feasibility.path_planner import plan_path, seed_ompl
-from planner.feasibility.robot import ARMS, HOME, BaxterBody, load_robot
+from planner.feasibility.robot import BaxterBody, load_robot
 from planner.feasibility.scene import PartBox, Scene, build_scene
 from planner.scenario_model import Scenario
 

@@ -15,15 +15,8 @@ from importlib import metadata
 from pathlib import Path
 
 from planner.feasibility._bullet import pb, silenced
+from planner.feasibility.arms import ARMS, HOME, JOINT_SUFFIXES
 
-ARMS = ("left", "right")
-JOINT_SUFFIXES = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
-# A common "untucked" Baxter pose: forearms down in front of the body, clear of the
-# bench and of each other, so every query starts from a collision-free configuration.
-HOME = {
-    "left": [0.0, -0.55, 0.0, 0.75, 0.0, 1.26, 0.0],
-    "right": [0.0, -0.55, 0.0, 0.75, 0.0, 1.26, 0.0],
-}
 _URDF_IN_PREFIX = "example-robot-data/robots/baxter_description/urdf/baxter.urdf"
 HUMAN_URDF_IN_PREFIX = "example-robot-data/robots/human_description/robots/human.urdf"
 # Crude implicit cylinders overlap when the elbow bends (field notes): shoulder vs

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from planner.feasibility._bullet import pb
 from planner.scenario_model import Part, Scenario
 from planner.scenario_sections import DEFAULT_REGION_X
 
@@ -167,6 +166,8 @@ def _box(
     yaw: float,
     size: tuple[float, float, float],
 ) -> int:
+    from planner.feasibility._bullet import pb
+
     shape = pb.createCollisionShape(
         pb.GEOM_BOX, halfExtents=[s / 2 for s in size], physicsClientId=client
     )
