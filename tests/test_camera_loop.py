@@ -181,3 +181,25 @@ def test_an_estimate_that_fits_no_option_has_no_answer(scenario: Scenario, plan:
         frames = len(source.observations)
         assert source.choose(ask_id, ask, ask.outcomes) is None
         assert len(source.observations) == frames
+
+
+def test_tandem_execute_with_the_simulated_camera(tmp_path: Path) -> None:
+    from app.store import SessionStore
+    from tests.plan_fixtures import tandem
+
+    env = {**__import__("os").environ, "TANDEM_DATA_DIR": str(tmp_path)}
+    done = tandem(
+        "execute", "default.toml", "--responses", "camera:sim", "--human", "random",
+        "--seed", "2", env=env,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1].split()[2] == "goal"
+    with SessionStore(tmp_path) as store:
+        (session,) = store.list_sessions()
+        events = store.events(session.id)
+    sensing = [e for e in events if e.kind == "sensing"]
+    assert sensing and all(e.source == "camera" for e in sensing)
+    # No camera there: exit 2, the reason on the last line.
+    done = tandem("execute", "default.toml", "--responses", "camera:webcam:63", env=env)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines()[-1] == "--responses camera:webcam:63: no camera at 63"

@@ -6,9 +6,11 @@ import argparse
 import secrets
 import signal
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 
+from app.camera_responses import CameraResponses, camera_responses
 from app.cli.exit_codes import BadInput
 from app.execution import ExecutionEvent, Executor
 from app.outcomes import (
@@ -20,10 +22,12 @@ from app.outcomes import (
     ScriptedSource,
 )
 from app.store import SessionStore
+from perception.frames import SourceError
 from planner.plan import Plan, PlanFormatError
 from planner.planning import plan_scenario
 from planner.resources import find_scenario
 from planner.scenario import load_scenario
+from planner.scenario_model import Scenario
 
 
 def register(parser: argparse.ArgumentParser) -> None:
@@ -32,9 +36,16 @@ def register(parser: argparse.ArgumentParser) -> None:
         "--responses",
         default="click",
         help="where outcomes come from: click (numbered choices on stdin), random, "
-        "or scripted:FILE (one outcome label a line); default click",
+        "scripted:FILE (one outcome label a line), or camera:SOURCE (the camera answers "
+        "sensing; SOURCE is sim, webcam[:N], a video file or an image folder); default click",
     )
-    parser.add_argument("--seed", type=int, help="seed for --responses random")
+    parser.add_argument(
+        "--human",
+        choices=["random"],
+        default="random",
+        help="with camera:sim, how the simulated human acts (random, seeded by --seed)",
+    )
+    parser.add_argument("--seed", type=int, help="seed for --responses random or camera:sim")
     parser.add_argument("--data-dir", help="session store folder (default: $TANDEM_DATA_DIR, ...)")
     parser.add_argument(
         "--step-delay", type=float, default=0.0, help="seconds between steps (default 0)"
@@ -43,16 +54,16 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(run=run)
 
 
-def load_plan(target: str) -> Plan:
-    """The plan of a plan file, or a fresh plan of a scenario file."""
+def load_plan(target: str) -> tuple[Plan, Scenario | None]:
+    """The plan of a plan file, or a fresh plan of a scenario file (with the scenario)."""
     path = Path(target)
     if path.suffix == ".json":
         try:
-            return Plan.read(path)
+            return Plan.read(path), None
         except PlanFormatError as err:
             raise BadInput(str(err)) from err
     scenario = load_scenario(find_scenario(path))
-    return plan_scenario(scenario, workers=1).plan
+    return plan_scenario(scenario, workers=1).plan, scenario
 
 
 def make_source(spec: str, seed: int | None, plan: Plan) -> OutcomeSource:
@@ -75,6 +86,10 @@ def make_source(spec: str, seed: int | None, plan: Plan) -> OutcomeSource:
     return FallbackSource(primary, ExpectedSource(), on_fallback=warn)
 
 
+def _camera_fallback(node_id: str, reason: str) -> None:
+    print(f"{node_id}: the camera did not answer ({reason}); a seeded choice", file=sys.stderr)
+
+
 def _print_event(event: ExecutionEvent) -> None:
     line = f"{event.seq:3d} {event.node:>5} {event.action or 'goal'}"
     if event.outcome is not None:
@@ -87,22 +102,40 @@ def _print_event(event: ExecutionEvent) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.step_delay < 0:
         raise BadInput(f"--step-delay {args.step_delay}: must be 0 or more")
-    if args.seed is not None and args.responses != "random":
-        raise BadInput("--seed goes with --responses random")
-    plan = load_plan(args.input)
+    seeded = args.responses in ("random", "camera:sim")
+    if args.seed is not None and not seeded:
+        raise BadInput("--seed goes with --responses random or camera:sim")
+    plan, scenario = load_plan(args.input)
     seed = args.seed
-    if args.responses == "random" and seed is None:
+    if seeded and seed is None:
         seed = secrets.randbelow(2**31)
         print(f"seed {seed}", file=sys.stderr)
-    source = make_source(args.responses, seed, plan)
+    camera: CameraResponses | None = None
+    listeners: list[Callable[[ExecutionEvent], None]] = []
+    if args.responses.startswith("camera:"):
+        if scenario is None:
+            raise BadInput("--responses camera:... needs the scenario file, not a plan file")
+        try:
+            camera = camera_responses(args.responses[len("camera:") :], scenario, plan, seed)
+        except SourceError as err:
+            raise BadInput(f"--responses {args.responses}: {err}") from err
+        listeners = camera.listeners
+        source: OutcomeSource = FallbackSource(
+            camera.source, RandomSource(seed), on_fallback=_camera_fallback
+        )
+    else:
+        source = make_source(args.responses, seed, plan)
     note = args.note
-    if args.responses == "random":
+    if seeded:
         note = f"seed {seed}" + (f"; {note}" if note else "")
     with SessionStore(args.data_dir) as store:
         session_id = store.start(plan, note=note)
         print(f"session {session_id}", flush=True)
         executor = Executor(
-            plan, source, [store.recorder(session_id), _print_event], args.step_delay
+            plan,
+            source,
+            [store.recorder(session_id), *listeners, _print_event],
+            args.step_delay,
         )
 
         def stop(signum: int, frame: FrameType | None) -> None:
@@ -116,5 +149,7 @@ def run(args: argparse.Namespace) -> int:
         finally:
             signal.signal(signal.SIGTERM, previous)
         store.finish(session_id, result)
+    if camera is not None:
+        camera.close()
     print(f"session {session_id}: {result} after {len(executor.events)} steps")
     return 0 if result == "goal" else 1

@@ -1,0 +1,54 @@
+"""`--responses camera:SOURCE`: the camera answers the sensing nodes of an execution.
+
+`camera:sim` renders the scenario's bench with the simulated camera while a
+seeded simulated human acts out the plan (it moves parts; the camera, not the
+human, answers). Any other SOURCE is a real frame source (`webcam[:N]`, a
+video file, an image folder) with the default intrinsics of its image size.
+Nodes the camera cannot answer (questions, or no stable fit) fall back.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from app.camera_bench import bench_layout, sim_scene
+from app.camera_source import CameraSource
+from app.execution import ExecutionEvent
+from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from perception.frames import FrameSource, open_source
+from perception.intrinsics import CameraIntrinsics
+from perception.pipeline import BenchPerception
+from perception.sim import SimulatedCamera
+from planner.feasibility.scene import part_boxes
+from planner.plan import Plan
+from planner.scenario_model import Scenario
+
+SIM_SIZE = (640, 640)  # every code of the default bench decodes in a clean 640 px frame
+
+
+@dataclass
+class CameraResponses:
+    source: CameraSource
+    listeners: list[Callable[[ExecutionEvent], None]]
+    frames: FrameSource
+
+    def close(self) -> None:
+        self.frames.close()
+
+
+def camera_responses(
+    spec: str, scenario: Scenario, plan: Plan, seed: int | None
+) -> CameraResponses:
+    """The camera source for `camera:SOURCE`; `SourceError` if the source cannot be opened."""
+    layout = bench_layout(scenario)
+    if spec == "sim":
+        camera = StillSimulatedCamera(SimulatedCamera(sim_scene(scenario), size=SIM_SIZE))
+        world = SimulatedWorld(part_boxes(scenario), layout, camera)
+        human = SimulatedHuman(plan, world, seed)
+        perception = BenchPerception(camera.camera.intrinsics, layout)
+        return CameraResponses(CameraSource(camera, perception, human), [human.on_event], camera)
+    frames = open_source(spec)
+    width, height = frames.size
+    perception = BenchPerception(CameraIntrinsics.from_fov(width, height), layout)
+    return CameraResponses(CameraSource(frames, perception), [], frames)
