@@ -10,7 +10,6 @@ from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 
-from app.camera_responses import CameraResponses, camera_responses
 from app.cli.exit_codes import BadInput
 from app.execution import ExecutionEvent, Executor
 from app.outcomes import (
@@ -22,7 +21,6 @@ from app.outcomes import (
     ScriptedSource,
 )
 from app.store import SessionStore
-from perception.frames import SourceError
 from planner.plan import Plan, PlanFormatError
 from planner.planning import plan_scenario
 from planner.resources import find_scenario
@@ -110,11 +108,15 @@ def run(args: argparse.Namespace) -> int:
     if seeded and seed is None:
         seed = secrets.randbelow(2**31)
         print(f"seed {seed}", file=sys.stderr)
-    camera: CameraResponses | None = None
+    camera = None
     listeners: list[Callable[[ExecutionEvent], None]] = []
     if args.responses.startswith("camera:"):
         if scenario is None:
             raise BadInput("--responses camera:... needs the scenario file, not a plan file")
+        # Imported here: the simulated camera loads pybullet, which other runs never need.
+        from app.camera_responses import camera_responses
+        from perception.frames import SourceError
+
         try:
             camera = camera_responses(args.responses[len("camera:") :], scenario, plan, seed)
         except SourceError as err:
