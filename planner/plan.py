@@ -13,7 +13,7 @@ violation rather than the first.
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
@@ -22,8 +22,12 @@ from pydantic import BaseModel, ConfigDict, PlainSerializer, PlainValidator, Val
 from planner import phrases, walks
 from planner.vocabulary import (
     ACTION_TYPES,
+    REQUESTS,
     Action,
+    AskHelp,
     Communication,
+    ConfirmAttach,
+    OfferHelp,
     TermError,
     parse_action,
     parse_term,
@@ -238,14 +242,6 @@ class Plan(BaseModel):
     def outcome_labels(self) -> set[str]:
         return {label for node in self.nodes.values() for label in node.outcomes}
 
-    def fact_values(self, name: str) -> Iterator[tuple[str, ...]]:
-        """The constant arguments of every fact `name(...)`."""
-        for text in self.facts:
-            if text.startswith(name):
-                term = parse_term(text)
-                if term.name == name:
-                    yield tuple(str(a) for a in term.args)
-
     def dot(self) -> str:
         lines = [
             "digraph plan {",
@@ -344,10 +340,10 @@ def tree_stats(plan: Plan) -> dict[str, int | float]:
         s = {
             "N": 1 + sum(k["N"] for k in kids),
             "L": 1 if not kids else sum(k["L"] for k in kids),
-            "K": (name == "askHelp") + sum(k["K"] for k in kids),
-            "O": (name == "offerHelp") + sum(k["O"] for k in kids),
-            "CF": (name == "confirmAttach") + sum(k["CF"] for k in kids),
-            "R": (name in ("requestToUnhold", "requestToAttach")) + sum(k["R"] for k in kids),
+            "K": (name == AskHelp.name) + sum(k["K"] for k in kids),
+            "O": (name == OfferHelp.name) + sum(k["O"] for k in kids),
+            "CF": (name == ConfirmAttach.name) + sum(k["CF"] for k in kids),
+            "R": (name in REQUESTS) + sum(k["R"] for k in kids),
             "DN": int(nondet) + sum(k["DN"] for k in kids),
             "BF": max([len(kids), *(k["BF"] for k in kids)]),
         }

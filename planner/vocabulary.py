@@ -318,42 +318,38 @@ class RequestToAttach(_Word):
 # Sensing actions are `sense(Query)`; each query is its own class, so that the
 # action `sense(humanHolding)` and the fluent `humanHolding` never share a name.
 @dataclass(frozen=True)
-class SenseHumanHolding(_Word):
+class _Sensing(_Word):
+    """`name` is the query's; the action's text wraps it in `sense(...)`."""
+
+    def __str__(self) -> str:
+        return f"sense({super().__str__()})"
+
+
+@dataclass(frozen=True)
+class SenseHumanHolding(_Sensing):
     name: ClassVar[str] = "humanHolding"
     kind: ClassVar[str] = "sensing"
 
-    def __str__(self) -> str:
-        return f"sense({super().__str__()})"
-
 
 @dataclass(frozen=True)
-class SenseHumanHoldingWhichPart(_Word):
+class SenseHumanHoldingWhichPart(_Sensing):
     name: ClassVar[str] = "humanHoldingWhichPart"
     kind: ClassVar[str] = "sensing"
 
-    def __str__(self) -> str:
-        return f"sense({super().__str__()})"
-
 
 @dataclass(frozen=True)
-class SenseHumanUnholding(_Word):
+class SenseHumanUnholding(_Sensing):
     name: ClassVar[str] = "humanUnholding"
     kind: ClassVar[str] = "sensing"
     part: str
 
-    def __str__(self) -> str:
-        return f"sense({super().__str__()})"
-
 
 @dataclass(frozen=True)
-class SenseHumanAttachingWhere(_Word):
+class SenseHumanAttachingWhere(_Sensing):
     name: ClassVar[str] = "humanAttachingWhere"
     kind: ClassVar[str] = "sensing"
     part: str
     onto: str
-
-    def __str__(self) -> str:
-        return f"sense({super().__str__()})"
 
 
 Actuation = Hold | Attach | Unhold
@@ -388,7 +384,3 @@ def parse_action(text: str) -> Action:
         return _from_term(_QUERIES, term.args[0], "sensing query")
     return _from_term(_ACTIONS, term, "action")
 
-
-def action_name(action: Action) -> str:
-    """The predicate of an action as the paper writes it (`sense` for every sensing)."""
-    return "sense" if action.kind == "sensing" else action.name

@@ -84,8 +84,14 @@ def make_source(spec: str, seed: int | None, plan: Plan) -> OutcomeSource:
     return FallbackSource(primary, ExpectedSource(), on_fallback=warn)
 
 
-def _camera_fallback(node_id: str, reason: str) -> None:
-    print(f"{node_id}: the camera did not answer ({reason}); a seeded choice", file=sys.stderr)
+def _camera_fallback(plan: Plan) -> Callable[[str, str], None]:
+    # Questions are never the camera's to answer: only a sensing node it missed is news.
+    def warn(node_id: str, reason: str) -> None:
+        if plan.nodes[node_id].kind == "sensing":
+            print(f"{node_id}: the camera did not answer ({reason}); a seeded choice",
+                  file=sys.stderr)  # fmt: skip
+
+    return warn
 
 
 def _print_event(event: ExecutionEvent) -> None:
@@ -123,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
             raise BadInput(f"--responses {args.responses}: {err}") from err
         listeners = camera.listeners
         source: OutcomeSource = FallbackSource(
-            camera.source, RandomSource(seed), on_fallback=_camera_fallback
+            camera.source, RandomSource(seed), on_fallback=_camera_fallback(plan)
         )
     else:
         source = make_source(args.responses, seed, plan)
