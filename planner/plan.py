@@ -282,7 +282,9 @@ def build_plan(
             continue
         action = None if node.goal else node.action
         say = why = None
-        if isinstance(action, Communication):
+        # A partial plan is redrawn twice a second while planning goes on: its
+        # sentences wait for the complete plan.
+        if isinstance(action, Communication) and timings is not None:
             why = phrases.why(action, state, fact_set)
             say = phrases.say(action, verbosity, why)
         out[node_id] = PlanNode(

@@ -115,7 +115,7 @@ class ExecutionPanel:
 
     def _on_event(self, event: ExecutionEvent) -> None:
         # Runs in the executor's thread: a motion takes as long as it is played.
-        self.stage.select(event.node, show_world=event.motion is None)
+        self.stage.go_to(event.node, show_world=event.motion is None)
         if event.motion:
             self._play(event.motion, float(self.speed.value))
             self.stage.show_world(event.node)

@@ -104,7 +104,7 @@ class ReviewPanel:
             return
         k = min(max(0, k), len(self.events) - 1)
         event = self.events[k]
-        self.stage.select(event.node)
+        self.stage.go_to(event.node)
         spoken = [
             f"`{e.node}` {e.action or 'goal'}"
             + (f" → **{e.outcome}**" if e.outcome else "")

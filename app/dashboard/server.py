@@ -271,12 +271,12 @@ class Dashboard:
     # -- the selected node ----------------------------------------------------------
 
     def select(self, node_id: str, *, show_world: bool = True) -> None:
-        """Show a node: its details, and the bench as the node leaves it."""
+        """Show a node: its details, and the bench as the node leaves it (a node
+        hidden in a collapsed branch stays hidden: `go_to` opens it)."""
         with self._lock:
             plan, tree = self.plan, self.tree.tree
             if plan is None or tree is None or node_id not in plan.nodes:
                 return
-            self.tree.expand_to(node_id)
             self.selected = node_id
             lineage = tree.lineage(node_id)
             node = plan.nodes[node_id]
@@ -312,9 +312,14 @@ class Dashboard:
             self.children_group = self.server.gui.add_button_group("Go to", labels)
         self.children_group.on_click(lambda e: self._go(targets[e.target.value]))
 
+    def go_to(self, node_id: str, *, show_world: bool = True) -> None:
+        """Open every collapsed ancestor of `node_id`, then select it."""
+        if self.tree.tree is not None and node_id in self.tree.tree.depth:
+            self.tree.expand_to(node_id)
+        self.select(node_id, show_world=show_world)
+
     def _go(self, node_id: str) -> None:
-        self.tree.expand_to(node_id)
-        self.select(node_id)
+        self.go_to(node_id)
 
     def _toggle(self) -> None:
         if self.selected is not None:

@@ -6,7 +6,7 @@ panels to come):
 - The `Dashboard` (server.py) owns the viser server, the bench scene and the
   plan tree. A panel receives the GUI API to build its controls in, the
   `Stage` it may drive, and the `Events` bus; never the dashboard itself.
-- `Stage` is all a panel may do to what is on screen: show a plan, select a
+- `Stage` is all a panel may do to what is on screen: show a plan, go to a
   node, show the world at a node, move the arms, read the current plan.
 - Panels tell each other what happened only through `Events`: typed,
   documented messages (as viser's own messages are), delivered synchronously
@@ -36,8 +36,8 @@ class Stage(Protocol):
         """Draw a complete plan in the tree and select its root."""
         ...
 
-    def select(self, node_id: str, *, show_world: bool = True) -> None:
-        """Select a node (opening the tree to it); the bench as the node leaves it."""
+    def go_to(self, node_id: str, *, show_world: bool = True) -> None:
+        """Open the tree to a node and select it; the bench as the node leaves it."""
         ...
 
     def show_world(self, node_id: str) -> None:
