@@ -18,7 +18,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Literal
 
-from app.outcomes import Outcome, OutcomeError, OutcomeSource, describe
+from app.outcomes import Evidence, Outcome, OutcomeError, OutcomeSource, describe
 from planner.plan import Motion, Plan, PlanNode
 
 Result = Literal["goal", "aborted", "interrupted", "dead-end"]
@@ -33,6 +33,8 @@ class ExecutionEvent:
     `outcome` is the branch taken (None after a deterministic node); `text`
     is what the robot said, or the outcome in words. `motion` (actuation
     only) is the node's `{arm, joints, path}`; it is not stored, the plan has it.
+    `evidence` is what decided the answer (a camera frame, the words heard),
+    stored beside the event.
     """
 
     seq: int
@@ -45,6 +47,7 @@ class ExecutionEvent:
     confidence: float | None = None
     text: str | None = None
     motion: Motion | None = field(default=None, compare=False, repr=False)
+    evidence: Evidence | None = field(default=None, compare=False, repr=False)
 
 
 Listener = Callable[[ExecutionEvent], None]
@@ -198,6 +201,7 @@ class Executor:
                     source=outcome.source,
                     confidence=outcome.confidence,
                     text=text or describe(node.action, outcome.label),
+                    evidence=outcome.evidence,
                 )
                 next_id = next(c.node for c in children if c.outcome == outcome.label)
             try:
@@ -260,6 +264,7 @@ class Executor:
         confidence: float | None = None,
         text: str | None = None,
         motion: Motion | None = None,
+        evidence: Evidence | None = None,
     ) -> None:
         event = ExecutionEvent(
             seq=len(self.events),
@@ -272,6 +277,7 @@ class Executor:
             confidence=confidence,
             text=text,
             motion=motion,
+            evidence=evidence,
         )
         self.events.append(event)
         for listener in self.listeners:

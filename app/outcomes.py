@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import random
 import threading
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Protocol
+from typing import IO, Any, Protocol
 
 from planner.plan import PlanNode
 from planner.vocabulary import (
@@ -32,13 +32,27 @@ Node = PlanNode
 
 
 @dataclass(frozen=True)
+class Evidence:
+    """What decided an answer, kept with the session for the review.
+
+    `detail` is JSON-ready (the words heard, the engine that spoke, what the
+    camera saw, what the simulated human really did); `jpeg` is a small
+    picture of the frame that decided a camera answer.
+    """
+
+    detail: Mapping[str, Any] = field(default_factory=dict)
+    jpeg: bytes | None = field(default=None, repr=False)
+
+
+@dataclass(frozen=True)
 class Outcome:
     """The outcome that happened at a node, and who said so."""
 
     label: str
-    source: str  # "click", "random", "scripted", "expected", "console"
+    source: str  # "click", "random", "scripted", "expected", "console", "camera", "voice"
     confidence: float | None = None
     text: str = ""
+    evidence: Evidence | None = None
 
 
 class OutcomeSource(Protocol):

@@ -2,7 +2,8 @@
 
 `plans` holds each plan once, keyed by the sha256 of its canonical JSON;
 `sessions` one row per execution; `events` every step, committed as it
-happens, so a session killed half-way keeps all it did. A session left
+happens (with `evidence`, what decided an answer: a JPEG of the camera's
+frame, the words heard), so a session killed half-way keeps all it did. A session left
 without an end by a process that is gone is marked "interrupted" the next
 time the store is opened.
 """
@@ -26,6 +27,7 @@ from sqlite_utils import Database
 from sqlite_utils.db import Table
 
 from app.execution import ExecutionEvent
+from app.outcomes import Evidence
 from app.processes import boot_id, owner_alive
 from planner.plan import Plan
 
@@ -182,6 +184,12 @@ class SessionStore:
             foreign_keys=[("session_id", "sessions", "id")],
             if_not_exists=True,
         )
+        self._table("evidence").create(
+            {"session_id": int, "seq": int, "detail": str, "jpeg": bytes},
+            pk=("session_id", "seq"),
+            foreign_keys=[("session_id", "sessions", "id")],
+            if_not_exists=True,
+        )
         self._table("sessions").create_index(["started"], if_not_exists=True)
 
     # -- writing ----------------------------------------------------------------
@@ -244,8 +252,23 @@ class SessionStore:
             "confidence": event.confidence,
             "text": event.text,
         }
-        with self._lock:
-            self._table("events").insert(row)
+        evidence = event.evidence
+        with self._lock, self.db.conn:
+            # One transaction: an answer is never stored without what decided it.
+            self.db.conn.execute(
+                f"insert into events ({', '.join(row)}) values ({', '.join('?' * len(row))})",
+                list(row.values()),
+            )
+            if evidence is not None:
+                self.db.conn.execute(
+                    "insert into evidence (session_id, seq, detail, jpeg) values (?, ?, ?, ?)",
+                    [
+                        session_id,
+                        event.seq,
+                        json.dumps(dict(evidence.detail), sort_keys=True),
+                        evidence.jpeg,
+                    ],
+                )
 
     def recorder(self, session_id: int) -> Callable[[ExecutionEvent], None]:
         """A listener for `Executor` that stores each event of `session_id`."""
@@ -317,14 +340,20 @@ class SessionStore:
             raise UnknownSession(session_id)
         return _record(dict(zip(names, row, strict=True)))
 
-    def events(self, session_id: int) -> list[ExecutionEvent]:
+    def events(self, session_id: int, *, with_jpeg: bool = False) -> list[ExecutionEvent]:
+        """The session's events in order, each with its evidence (the JPEGs if asked)."""
         self.get(session_id)
+        jpeg = "v.jpeg" if with_jpeg else "null"
         with self._lock:
-            rows = list(
-                self._table("events").rows_where(
-                    "session_id = ?", [session_id], order_by="seq", select="*"
-                )
+            cursor = self.db.execute(
+                f"select e.*, v.detail as evidence_detail, {jpeg} as evidence_jpeg, "
+                "v.seq is not null as has_evidence from events e left join evidence v "
+                "on v.session_id = e.session_id and v.seq = e.seq "
+                "where e.session_id = ? order by e.seq",
+                [session_id],
             )
+            names = [d[0] for d in cursor.description]
+            rows = [dict(zip(names, r, strict=True)) for r in cursor.fetchall()]
         return [
             ExecutionEvent(
                 seq=r["seq"],
@@ -336,9 +365,22 @@ class SessionStore:
                 source=r["source"],
                 confidence=r["confidence"],
                 text=r["text"],
+                evidence=(
+                    Evidence(json.loads(r["evidence_detail"] or "{}"), r["evidence_jpeg"])
+                    if r["has_evidence"]
+                    else None
+                ),
             )
             for r in rows
         ]
+
+    def evidence_jpeg(self, session_id: int, seq: int) -> bytes | None:
+        """The picture that decided event `seq` of the session, if one was kept."""
+        with self._lock:
+            row = self.db.execute(
+                "select jpeg from evidence where session_id = ? and seq = ?", [session_id, seq]
+            ).fetchone()
+        return None if row is None else row[0]
 
     def plan_doc(self, digest: str) -> dict[str, Any]:
         """The stored plan's JSON document, as stored."""
@@ -360,9 +402,13 @@ class SessionStore:
         """The session, its events and its plan, as one JSON-ready document."""
         record = self.get(session_id)
         events = []
-        for event in self.events(session_id):
+        for event in self.events(session_id, with_jpeg=True):
             row = asdict(event)
             row.pop("motion")
+            evidence = event.evidence
+            row["evidence"] = None if evidence is None else {
+                "detail": dict(evidence.detail), "jpeg": evidence.jpeg is not None
+            }
             events.append(row)
         return {
             "format": EXPORT_FORMAT,

@@ -8,13 +8,14 @@ import os
 import sqlite3
 import subprocess
 import sys
+from collections.abc import Sequence
 from datetime import date, datetime, timedelta
 from pathlib import Path
 
 import pytest
 
 from app.execution import ExecutionEvent, Executor
-from app.outcomes import ExpectedSource, RandomSource
+from app.outcomes import Evidence, ExpectedSource, Outcome, RandomSource
 from app.processes import process_start
 from app.store import (
     DB_NAME,
@@ -24,7 +25,7 @@ from app.store import (
     is_plan_path,
     plan_hash,
 )
-from planner.plan import Plan, ScenarioRef
+from planner.plan import Plan, PlanNode, ScenarioRef
 from tests.plan_fixtures import default_plan
 
 
@@ -191,3 +192,34 @@ def test_unknown_sessions(tmp_path: Path) -> None:
             store.get(42)
         with pytest.raises(UnknownSession):
             store.export(42)
+
+
+class _EvidencedSource:
+    """Answers the first option, with the evidence a camera would keep."""
+
+    name = "camera"
+
+    def choose(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Outcome:
+        picture = b"\xff\xd8" + node_id.encode() + b"\xff\xd9"
+        return Outcome(options[0], "camera", 0.9, "", Evidence({"truth": options[0]}, picture))
+
+
+def test_evidence_is_stored_with_its_event(plan: Plan, tmp_path: Path) -> None:
+    store = SessionStore(tmp_path)
+    sid = store.start(plan)
+    assert Executor(plan, _EvidencedSource(), [store.recorder(sid)]).run() == "goal"
+    events = store.events(sid)
+    answered = [e for e in events if e.outcome is not None]
+    assert answered and all(e.evidence is not None for e in answered)
+    assert all(e.evidence is None for e in events if e.outcome is None)
+    first = answered[0]
+    assert first.evidence is not None and first.evidence.detail == {"truth": first.outcome}
+    assert first.evidence.jpeg is None  # pictures only when asked
+    assert store.evidence_jpeg(sid, first.seq) == b"\xff\xd8" + first.node.encode() + b"\xff\xd9"
+    with_pictures = store.events(sid, with_jpeg=True)
+    assert [e.evidence.jpeg is not None for e in with_pictures if e.evidence] == [True] * len(
+        answered
+    )
+    exported = store.export(sid)["events"]
+    assert exported[first.seq]["evidence"] == {"detail": {"truth": first.outcome}, "jpeg": True}
+    store.close()
