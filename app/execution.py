@@ -23,6 +23,7 @@ from planner.plan import Motion, Plan, PlanNode
 
 Result = Literal["goal", "aborted", "interrupted", "dead-end"]
 RESULTS: tuple[Result, ...] = ("goal", "aborted", "interrupted", "dead-end")
+INTERRUPTED = "interrupted"  # the kind of the last event of an interrupted walk
 
 
 @dataclass(frozen=True)
@@ -33,6 +34,8 @@ class ExecutionEvent:
     `outcome` is the branch taken (None after a deterministic node); `text`
     is what the robot said, or the outcome in words. `motion` (actuation
     only) is the node's `{arm, joints, path}`; it is not stored, the plan has it.
+    An interrupted walk ends with an event of kind `interrupted` at the node it
+    stood at, saying why (it is not a step of the plan).
     `evidence` is what decided the answer (a camera frame, the words heard),
     stored beside the event.
     """
@@ -87,6 +90,7 @@ class Executor:
         self._paused = False
         self._credits = 0  # steps allowed while paused
         self._aborted = False
+        self._stopped_by: str | None = None  # why the walk was interrupted
         self._thread: threading.Thread | None = None
         self._done = threading.Event()
 
@@ -118,6 +122,13 @@ class Executor:
         interrupt = getattr(self.source, "interrupt", None)
         if callable(interrupt):
             interrupt()
+
+    def interrupt(self, reason: str) -> None:
+        """Stops the walk as `interrupted` (the program is stopping, not the operator),
+        with a last event saying `reason`."""
+        with self._cond:
+            self._stopped_by = reason
+        self.abort()
 
     @property
     def paused(self) -> bool:
@@ -156,7 +167,14 @@ class Executor:
     def run(self) -> Result:
         """Walks the plan in this thread and returns how it ended."""
         try:
-            self.result = self._walk()
+            result = self._walk()
+            with self._cond:
+                reason = self._stopped_by
+            if result == "aborted" and reason is not None:
+                result = "interrupted"
+                last = self.events[-1].node if self.events else self.plan.root
+                self._emit_stop(last, reason)
+            self.result = result
         except BaseException:
             self.result = "aborted"
             raise
@@ -253,6 +271,16 @@ class Executor:
                     f"'{outcome.label}' is not an outcome of {node.action} at {node_id}"
                 )
             return outcome
+
+    def _emit_stop(self, node_id: str, reason: str) -> None:
+        """The last event of an interrupted walk: where it stood, and why it stopped."""
+        event = ExecutionEvent(
+            seq=len(self.events), time=time.time(), node=node_id, action=None,
+            kind=INTERRUPTED, text=reason,
+        )  # fmt: skip
+        self.events.append(event)
+        for listener in self.listeners:
+            listener(event)
 
     def _emit(
         self,

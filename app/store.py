@@ -17,7 +17,8 @@ import socket
 import sqlite3
 import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from datetime import date, datetime
 from pathlib import Path
@@ -26,7 +27,7 @@ from typing import Any
 from sqlite_utils import Database
 from sqlite_utils.db import Table
 
-from app.execution import ExecutionEvent
+from app.execution import INTERRUPTED, ExecutionEvent
 from app.outcomes import Evidence
 from app.processes import boot_id, owner_alive
 from planner.plan import Plan
@@ -38,6 +39,21 @@ _KNOWN_PLANS = 8
 
 DB_NAME = "sessions.db"
 EXPORT_FORMAT = "tandem-session/1"
+
+
+class StoreError(Exception):
+    """The session database cannot be used (or written); `str()` is one line naming
+    the file and what to do."""
+
+
+def _readonly(err: sqlite3.Error) -> bool:
+    return "readonly" in str(err) or "read-only" in str(err)
+
+
+def _unusable(path: Path, err: sqlite3.Error) -> StoreError:
+    return StoreError(
+        f"{path}: not a usable session database ({err}); move it away or choose another --data-dir"
+    )
 
 
 class UnknownSession(KeyError):
@@ -120,20 +136,85 @@ def is_plan_path(
 class SessionStore:
     """The session database in `data_dir` (created if missing); safe across threads."""
 
-    def __init__(self, data_dir: str | Path | None = None) -> None:
+    def __init__(self, data_dir: str | Path | None = None, *, read_only: bool = False) -> None:
+        """Opens (or creates) the database; raises `StoreError` with one line if it can't.
+
+        A database that can be read but not written opens for reading, with the
+        reason in `read_only` (writes then raise `StoreError`); `read_only=True`
+        asks for that from the start.
+        """
         self.data_dir = Path(data_dir) if data_dir is not None else default_data_dir()
-        self.data_dir.mkdir(parents=True, exist_ok=True)
         self.db_path = self.data_dir / DB_NAME
-        conn = sqlite3.connect(str(self.db_path), check_same_thread=False, timeout=30)
-        self.db = Database(conn)
         self._lock = threading.RLock()
         self._plans: dict[int, tuple[Plan, str]] = {}
-        with self._lock:
-            self.db.execute("PRAGMA journal_mode=WAL")
-            # In WAL mode NORMAL still keeps every commit across a killed process.
-            self.db.execute("PRAGMA synchronous=NORMAL")
-            self._create()
-            self.interrupted = self.mark_interrupted()
+        self.read_only: str | None = "opened for reading only" if read_only else None
+        self.interrupted: list[int] = []
+        if not read_only:
+            try:
+                self.data_dir.mkdir(parents=True, exist_ok=True)
+                self.db = Database(self._connect(""))
+                with self._lock:
+                    self.db.execute("PRAGMA journal_mode=WAL")
+                    # In WAL mode NORMAL still keeps every commit across a killed process.
+                    self.db.execute("PRAGMA synchronous=NORMAL")
+                    self._create()
+                    # SQLite opens a file it may not write read-only without a word:
+                    # write once and roll back, so that shows now, not mid-session.
+                    self.db.execute("BEGIN IMMEDIATE")
+                    try:
+                        self.db.execute("insert into plans (hash, doc) values ('', '')")
+                    finally:
+                        self.db.execute("ROLLBACK")
+                    self.interrupted = self.mark_interrupted()
+                return
+            except OSError as err:
+                if not self.db_path.is_file():
+                    raise StoreError(
+                        f"{self.data_dir}: cannot create the data folder ({err.strerror}); "
+                        "choose another with --data-dir or TANDEM_DATA_DIR"
+                    ) from None
+                self.read_only = f"{self.data_dir}: not writable ({err.strerror})"
+            except sqlite3.DatabaseError as err:
+                if not _readonly(err):
+                    raise _unusable(self.db_path, err) from None
+                self.db.conn.close()
+                self.read_only = f"{self.db_path}: not writable ({err})"
+        if not self.db_path.is_file():
+            raise StoreError(f"{self.db_path}: no session database here; check --data-dir")
+        try:
+            # immutable: a read-only folder cannot hold WAL's shared-memory file.
+            self.db = Database(self._connect("?mode=ro&immutable=1"))
+            self.db.execute("select count(*) from sessions").fetchone()
+        except sqlite3.DatabaseError as err:
+            raise _unusable(self.db_path, err) from None
+
+    def _connect(self, query: str) -> sqlite3.Connection:
+        return sqlite3.connect(
+            f"{self.db_path.absolute().as_uri()}{query}",
+            uri=True, check_same_thread=False, timeout=30,
+        )  # fmt: skip
+
+    @contextmanager
+    def _reading(self) -> Iterator[None]:
+        """The lock, for a read; a damaged database is one `StoreError` line."""
+        try:
+            with self._lock:
+                yield
+        except sqlite3.DatabaseError as err:
+            raise _unusable(self.db_path, err) from None
+
+    @contextmanager
+    def _writing(self) -> Iterator[None]:
+        """The lock, for a write; a write that fails is one `StoreError` line."""
+        if self.read_only is not None:
+            raise StoreError(f"cannot record: {self.read_only}")
+        try:
+            with self._lock:
+                yield
+        except sqlite3.Error as err:
+            raise StoreError(
+                f"{self.db_path}: cannot write ({err}); free space or fix its permissions"
+            ) from None
 
     def close(self) -> None:
         with self._lock:
@@ -206,7 +287,8 @@ class SessionStore:
                 return known[1]
             text = canonical_json(plan)
             digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
-            self._table("plans").insert({"hash": digest, "doc": text}, ignore=True)
+            with self._writing():
+                self._table("plans").insert({"hash": digest, "doc": text}, ignore=True)
             self._plans[id(plan)] = (plan, digest)
             while len(self._plans) > _KNOWN_PLANS:
                 del self._plans[next(iter(self._plans))]
@@ -232,7 +314,7 @@ class SessionStore:
             "pid": os.getpid() if pid is None else pid,
             "host_boot": boot_id() or socket.gethostname(),
         }
-        with self._lock:
+        with self._writing():
             table = self._table("sessions").insert(row)
             session_id = table.last_pk
         assert isinstance(session_id, int)
@@ -253,7 +335,7 @@ class SessionStore:
             "text": event.text,
         }
         evidence = event.evidence
-        with self._lock, self.db.conn:
+        with self._writing(), self.db.conn:
             # One transaction: an answer is never stored without what decided it.
             self.db.conn.execute(
                 f"insert into events ({', '.join(row)}) values ({', '.join('?' * len(row))})",
@@ -275,7 +357,7 @@ class SessionStore:
         return lambda event: self.record(session_id, event)
 
     def finish(self, session_id: int, result: str, ended: float | None = None) -> None:
-        with self._lock:
+        with self._writing():
             self._table("sessions").update(
                 session_id, {"result": result, "ended": time.time() if ended is None else ended}
             )
@@ -321,14 +403,14 @@ class SessionStore:
             + (" where " + " and ".join(where) if where else "")
             + " order by s.started, s.id"
         )
-        with self._lock:
+        with self._reading():
             cursor = self.db.execute(sql, params)
             names = [d[0] for d in cursor.description]
             rows = [dict(zip(names, r, strict=True)) for r in cursor.fetchall()]
         return [_record(r) for r in rows]
 
     def get(self, session_id: int) -> SessionRecord:
-        with self._lock:
+        with self._reading():
             cursor = self.db.execute(
                 "select s.*, (select count(*) from events e where e.session_id = s.id) "
                 "as n_events from sessions s where s.id = ?",
@@ -344,7 +426,7 @@ class SessionStore:
         """The session's events in order, each with its evidence (the JPEGs if asked)."""
         self.get(session_id)
         jpeg = "v.jpeg" if with_jpeg else "null"
-        with self._lock:
+        with self._reading():
             cursor = self.db.execute(
                 f"select e.*, v.detail as evidence_detail, {jpeg} as evidence_jpeg, "
                 "v.seq is not null as has_evidence from events e left join evidence v "
@@ -376,7 +458,7 @@ class SessionStore:
 
     def evidence_jpeg(self, session_id: int, seq: int) -> bytes | None:
         """The picture that decided event `seq` of the session, if one was kept."""
-        with self._lock:
+        with self._reading():
             row = self.db.execute(
                 "select jpeg from evidence where session_id = ? and seq = ?", [session_id, seq]
             ).fetchone()
@@ -384,7 +466,7 @@ class SessionStore:
 
     def plan_doc(self, digest: str) -> dict[str, Any]:
         """The stored plan's JSON document, as stored."""
-        with self._lock:
+        with self._reading():
             row = self.db.execute("select doc from plans where hash = ?", [digest]).fetchone()
         if row is None:
             raise KeyError(f"no plan {digest}")
@@ -396,7 +478,7 @@ class SessionStore:
 
     def path(self, session_id: int) -> list[tuple[str, str | None]]:
         """The nodes the session went through, with the outcome taken at each."""
-        return [(e.node, e.outcome) for e in self.events(session_id)]
+        return [(e.node, e.outcome) for e in self.events(session_id) if e.kind != INTERRUPTED]
 
     def export(self, session_id: int) -> dict[str, Any]:
         """The session, its events and its plan, as one JSON-ready document."""
@@ -406,9 +488,11 @@ class SessionStore:
             row = asdict(event)
             row.pop("motion")
             evidence = event.evidence
-            row["evidence"] = None if evidence is None else {
-                "detail": dict(evidence.detail), "jpeg": evidence.jpeg is not None
-            }
+            row["evidence"] = (
+                None
+                if evidence is None
+                else {"detail": dict(evidence.detail), "jpeg": evidence.jpeg is not None}
+            )
             events.append(row)
         return {
             "format": EXPORT_FORMAT,

@@ -24,21 +24,38 @@ from planner.scenario_rules import FieldProblem
 __all__ = ["Part", "Region", "Scenario", "ScenarioError", "load_scenario", "parse_scenario"]
 
 
-class ScenarioError(Exception):
-    """A scenario that cannot be used; `str()` is one line `file: field: message`."""
+# The largest scenario accepted: 1,000 parts take about 100 kB, so this is far
+# above any real bench and far below what would stall parsing and validation.
+MAX_SCENARIO_CHARS = 1_000_000
 
-    def __init__(self, source: str, field: str, message: str) -> None:
+
+class ScenarioError(Exception):
+    """A scenario that cannot be used; `str()` is one line `file: field: message`.
+
+    `got` is the offending value as shown (`string 'abc'`), kept apart so that
+    `without_value()` can say what is wrong without quoting the file, for
+    readers who may not see the file itself (a dashboard's page).
+    """
+
+    def __init__(self, source: str, field: str, message: str, got: str | None = None) -> None:
         self.source = source
         self.field = field
         self.message = " ".join(message.split())  # one line, whatever the cause said
-        super().__init__(f"{source}: {field}: {self.message}")
+        self.got = None if got is None else " ".join(got.split())
+        shown = self.message if self.got is None else f"{self.message}, got {self.got}"
+        super().__init__(f"{source}: {field}: {shown}")
+
+    def without_value(self) -> str:
+        return f"{self.source}: {self.field}: {self.message}"
 
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario file; raises `ScenarioError`."""
     source = str(path)
     try:
-        data = Path(path).read_bytes()
+        with Path(path).open("rb") as f:
+            # One byte more than allowed is enough to refuse a huge file unread.
+            data = f.read(MAX_SCENARIO_CHARS * 4 + 1)
     except OSError as err:
         raise ScenarioError(source, "file", f"cannot read: {err.strerror or err}") from None
     try:
@@ -54,15 +71,22 @@ def parse_scenario(text: str, source: str) -> Scenario:
 
 
 def _parse(text: str, source: str, sha256: str) -> Scenario:
+    if len(text) > MAX_SCENARIO_CHARS:
+        raise ScenarioError(source, "file", f"too large (over {MAX_SCENARIO_CHARS:,} characters)")
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise _toml_error(source, str(err)) from None
+    except RecursionError:
+        # tomllib parses nested arrays and inline tables recursively.
+        raise ScenarioError(source, "toml", "nested too deeply") from None
     try:
         scenario = Scenario.model_validate(raw)
     except ValidationError as err:
         first = err.errors(include_url=False)[0]
         raise ScenarioError(source, *_describe(first)) from None
+    except RecursionError:
+        raise ScenarioError(source, "toml", "nested too deeply") from None
     except FieldProblem as err:
         raise ScenarioError(source, err.path, err.message) from None
     scenario._sha256 = sha256
@@ -110,27 +134,26 @@ _EXPECTED = {
 _LENGTH = re.compile(r"should have at (least|most) (\d+) items? after validation, not (\d+)")
 
 
-def _describe(error: Any) -> tuple[str, str]:
-    """(field path, plain words) for the first pydantic error."""
+def _describe(error: Any) -> tuple[str, str, str | None]:
+    """(field path, plain words, the value as shown) for the first pydantic error."""
     loc: tuple[int | str, ...] = tuple(error["loc"])
     kind: str = error["type"]
     msg: str = error["msg"]
     if kind == "extra_forbidden":
         allowed = _fields_at(loc[:-1])
         hint = f" (allowed: {', '.join(allowed)})" if allowed else ""
-        return _path(loc), f"unknown field{hint}"
+        return _path(loc), f"unknown field{hint}", None
     if kind in _EXPECTED:
         what = _EXPECTED[kind]
     elif (m := _LENGTH.search(msg)) is not None:
         n = m[2]
-        return _path(loc), f"expected at {m[1]} {n} item{'s' if n != '1' else ''}, got {m[3]}"
+        plural = "s" if n != "1" else ""
+        return _path(loc), f"expected at {m[1]} {n} item{plural}, got {m[3]}", None
     elif msg.startswith("Value error, "):
-        return _path(loc), msg.removeprefix("Value error, ")
+        return _path(loc), msg.removeprefix("Value error, "), None
     else:
         what = msg.replace("Input should be ", "expected ", 1)
-    if kind != "missing":
-        what += f", got {_show(error.get('input'))}"
-    return _path(loc), what
+    return _path(loc), what, None if kind == "missing" else _show(error.get("input"))
 
 
 def _show(value: object) -> str:

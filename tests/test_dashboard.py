@@ -52,7 +52,12 @@ def browser() -> Iterator[Browser]:
 @pytest.fixture(scope="module")
 def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
     cache = str(tmp_path_factory.mktemp("cache"))
-    d = Dashboard("127.0.0.1", free_port(), "default.toml", workers=1, cache_dir=cache)
+    mine = tmp_path_factory.mktemp("lab-scenarios")
+    (mine / "bad.toml").write_text('name = "bad"\n[[parts]]\nid = "top"\n')
+    d = Dashboard(
+        "127.0.0.1", free_port(), "default.toml", workers=1, cache_dir=cache,
+        scenario_dirs=[mine],
+    )  # fmt: skip
     yield d
     d.close()
 
@@ -146,13 +151,16 @@ def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Das
 def test_malformed_scenario_shows_an_error_and_the_page_keeps_working(
     page: Page, dashboard: Dashboard, tmp_path: Path
 ) -> None:
-    bad = tmp_path / "bad.toml"
-    bad.write_text('name = "bad"\n[[parts]]\nid = "top"\n')
+    outside = tmp_path / "outside.toml"
+    outside.write_text('name = "s3cr3t-token-ABC123"\n')
     box = field(page, "File")
-    box.fill(str(bad))  # type: ignore[attr-defined]
+    box.fill(str(outside))  # type: ignore[attr-defined]
     page.get_by_role("button", name="Open file", exact=True).click()
-    page.get_by_text("Error:", exact=False).first.wait_for()
-    assert "bad.toml" in page.content()
+    page.get_by_text("not a path", exact=False).first.wait_for()
+    assert "s3cr3t" not in page.content()  # a path outside the folders is never read
+    box.fill("bad.toml")  # type: ignore[attr-defined]
+    page.get_by_role("button", name="Open file", exact=True).click()
+    page.get_by_text("bad.toml: ", exact=False).first.wait_for()
     shot(page, "scenario-error")
     # The previous scenario is still loaded and plans.
     assert dashboard.loaded is not None and dashboard.loaded.scenario is not None

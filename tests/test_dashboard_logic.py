@@ -8,6 +8,7 @@ from typing import Any
 import pytest
 
 from app.dashboard import scenario_edit
+from app.dashboard.scenario_folders import RefusedName, ScenarioFolders
 from app.dashboard.tree_layout import SpanningTree, layout
 from app.dashboard.world import place_parts, world_at
 from planner.feasibility.robot import HOME
@@ -96,9 +97,12 @@ def test_scenario_edits_validate_and_save(tmp_path: Path) -> None:
     assert changed.scenario.part("leg1").pose is None  # re-placed inside its new region
     bad = scenario_edit.edit(loaded.text, loaded.source, region={"leg1": "moon"})
     assert bad.scenario is None and "moon" in bad.error and "\n" not in bad.error
-    out = scenario_edit.save(changed.text, tmp_path / "mine.toml")
+    folders = ScenarioFolders(tmp_path / "scenarios")
+    out = folders.save(changed.text, "mine.toml")
+    assert out.parent == tmp_path / "scenarios"
     assert load_scenario(out).preferences.safety == "strict"
-    with pytest.raises(ValueError, match="exists already"):
-        scenario_edit.save(changed.text, out)
+    with pytest.raises(RefusedName, match="exists"):
+        folders.save(changed.text, "mine.toml")
+    assert scenario_edit.load_named(folders, "mine.toml").scenario is not None
     assert scenario_edit.load_file(tmp_path / "missing.toml").error
-    assert scenario_edit.shipped_scenarios()[0] == "default.toml"
+    assert folders.names()[0] == "default.toml" and "mine.toml" in folders.names()

@@ -93,10 +93,13 @@ def test_the_wheel_carries_every_module_encoding_and_scenario(installed: Install
 def test_the_installed_code_and_scenarios_come_from_the_venv(installed: Installed) -> None:
     probe = (
         "import json, app, planner, tandem_static\n"
-        "from app.dashboard.scenario_edit import load_file, shipped_scenarios\n"
+        "from pathlib import Path\n"
+        "from app.dashboard.scenario_edit import load_file\n"
+        "from app.dashboard.scenario_folders import ScenarioFolders\n"
         "loaded = load_file('paper/U10.toml')\n"
+        "names = ScenarioFolders(Path('no-such-folder')).names()\n"
         "print(json.dumps({'modules': [app.__file__, planner.__file__, tandem_static.__file__],"
-        " 'source': loaded.source, 'error': loaded.error, 'names': shipped_scenarios()}))\n"
+        " 'source': loaded.source, 'error': loaded.error, 'names': names}))\n"
     )
     result = subprocess.run(
         [str(installed.python), "-c", probe],

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from app.outcomes import ScriptError
-from app.store import UnknownSession
+from app.store import StoreError, UnknownSession
 from planner.hcp import DeadEnd
 from planner.scenario import ScenarioError
 
@@ -30,6 +30,7 @@ EXIT_CODES: tuple[tuple[type[Exception], int], ...] = (
     (BadInput, BAD_INPUT),
     (ScriptError, BAD_INPUT),
     (UnknownSession, BAD_INPUT),
+    (StoreError, BAD_INPUT),
 )
 HANDLED: tuple[type[Exception], ...] = tuple(error for error, _ in EXIT_CODES)
 

@@ -77,7 +77,7 @@ def _show(args: argparse.Namespace) -> int:
     if record.note:
         print(f"  note      {record.note}")
     for event in events:
-        line = f"  {event.seq:3d} {event.node:>5} {event.kind:13} {event.action or 'goal'}"
+        line = f"  {event.seq:3d} {event.node:>5} {event.kind:13} {event.action or event.kind}"
         if event.outcome is not None:
             line += f" -> {event.outcome} ({event.source})"
         if event.text:

@@ -153,9 +153,7 @@ class BenchScene:
         names = self.robot.get_actuated_joint_names()
         cfg = np.zeros(len(names))
         for arm in ARMS:
-            for suffix, value in zip(
-                JOINT_SUFFIXES, arms[arm], strict=True
-            ):
+            for suffix, value in zip(JOINT_SUFFIXES, arms[arm], strict=True):
                 name = f"{arm}_{suffix}"
                 if name in names:
                     cfg[names.index(name)] = value

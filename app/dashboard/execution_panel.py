@@ -16,6 +16,7 @@ from typing import Any
 
 import viser
 
+from app.dashboard.operator import Operator, refuse
 from app.dashboard.stage import (
     Events,
     ExecutionFinished,
@@ -25,7 +26,7 @@ from app.dashboard.stage import (
 )
 from app.execution import ExecutionEvent, Executor
 from app.outcomes import ClickSource, Offer
-from app.store import SessionStore
+from app.store import SessionStore, StoreError
 from planner.plan import Motion
 
 FRAMES_PER_MOTION = 20  # arm poses shown per motion (the path is subsampled)
@@ -34,12 +35,20 @@ LOG_LINES = 12
 
 class ExecutionPanel:
     def __init__(
-        self, gui: viser.GuiApi, stage: Stage, events: Events, store: SessionStore
+        self,
+        gui: viser.GuiApi,
+        stage: Stage,
+        events: Events,
+        store: SessionStore,
+        operator: Operator,
     ) -> None:
         self.gui = gui
         self.stage = stage
         self.events = events
         self.store = store
+        self.operator = operator
+        self.refusal = ""  # why executions cannot start (a store that cannot be written)
+        self._finisher: threading.Thread | None = None
         self.executor: Executor | None = None
         self.clicks: ClickSource | None = None
         self.session_id: int | None = None
@@ -48,13 +57,19 @@ class ExecutionPanel:
         self._lock = threading.Lock()  # the answer buttons: executor and GUI threads
         with gui.add_folder("Execute"):
             self.start_button = gui.add_button("Execute plan", disabled=True)
-            self.start_button.on_click(lambda _: self.start())
+            self.start_button.on_click(lambda e: self.start(e.client_id, e.client))
+            only = operator.only
             self.pause_button = gui.add_button("Pause / resume", disabled=True)
-            self.pause_button.on_click(lambda _: self._pause_resume())
+            self.pause_button.on_click(only("pause or resume", lambda _: self._pause_resume()))
             self.step_button = gui.add_button("Step", disabled=True)
-            self.step_button.on_click(lambda _: self.executor.step() if self.executor else None)
+            self.step_button.on_click(
+                only("step", lambda _: self.executor.step() if self.executor else None)
+            )
             self.abort_button = gui.add_button("Abort", disabled=True)
-            self.abort_button.on_click(lambda _: self.executor.abort() if self.executor else None)
+            self.abort_button.on_click(
+                only("abort", lambda _: self.executor.abort() if self.executor else None)
+            )
+            self.notice = gui.add_markdown("")
             self.speed: Any = gui.add_slider("Seconds per step", 0.0, 3.0, 0.1, 0.5)
             self.human_folder = gui.add_folder("Simulated human")
             with self.human_folder:
@@ -64,18 +79,33 @@ class ExecutionPanel:
 
     def _plan_changed(self, message: PlanChanged) -> None:
         ready = message.plan is not None and not message.plan.partial
-        self.start_button.disabled = not ready or self.running
+        self.start_button.disabled = not ready or self.running or bool(self.refusal)
+
+    def refuse_executions(self, reason: str) -> None:
+        """No execution may start (it could not be recorded); `reason` is shown."""
+        self.refusal = reason
+        self.start_button.disabled = True
+        self.notice.content = f"**Execution disabled:** {reason}"
 
     @property
     def running(self) -> bool:
         return self.executor is not None and not self.executor.done
 
-    def start(self) -> None:
+    def start(self, client_id: int | None = None, client: viser.ClientHandle | None = None) -> None:
+        """Starts executing the shown plan, driven by page `client_id` (None: the server)."""
         plan = self.stage.current_plan()
-        if plan is None or plan.partial or self.running:
+        if plan is None or plan.partial or self.running or self.refusal:
             return
+        try:
+            # Refuse rather than run unrecorded: the session row is written first.
+            session_id = self.store.start(plan, note="dashboard")
+        except StoreError as err:
+            self.refuse_executions(str(err))
+            refuse(client, str(err))
+            return
+        self.session_id = session_id
+        self.operator.take(client_id)
         self.clicks = ClickSource(timeout=None, on_offer=self._offered)  # a person answers
-        self.session_id = self.store.start(plan, note="dashboard")
         self._log = []
         self.executor = Executor(
             plan,
@@ -86,20 +116,31 @@ class ExecutionPanel:
         self.start_button.disabled = True
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = False
+        self.notice.content = ""
         self.events.publish(ExecutionStarted(self.session_id))
         self.executor.start()
-        threading.Thread(target=self._finish, args=(self.executor,), daemon=True).start()
+        self._finisher = threading.Thread(target=self._finish, args=(self.executor,), daemon=True)
+        self._finisher.start()
 
     def _finish(self, executor: Executor) -> None:
-        result = executor.wait()
+        executor.wait()
+        result = executor.result
+        if executor.error is not None:
+            # A write that failed mid-session stops it; what was committed stays.
+            result = "interrupted"
+            self.notice.content = f"**Execution stopped:** {executor.error}"
         session_id = self.session_id
         if session_id is not None and result is not None:
-            self.store.finish(session_id, result)
+            try:
+                self.store.finish(session_id, result)
+            except StoreError as err:
+                self.refuse_executions(str(err))
+        self.operator.release()
         self._clear_answers()
         self._log.append(f"**Session {session_id}: {result}**")
         self.log.content = "\n\n".join(self._log[-LOG_LINES:])
         self.question.content = f"Execution ended: {result}."
-        self.start_button.disabled = False
+        self.start_button.disabled = bool(self.refusal)
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = True
         if session_id is not None:
@@ -144,7 +185,9 @@ class ExecutionPanel:
             with self.human_folder:
                 for label, words in zip(offer.options, offer.words, strict=True):
                     button = self.gui.add_button(words)
-                    button.on_click(self._answer(offer.node_id, label))
+                    button.on_click(
+                        self.operator.only("answer", self._answer(offer.node_id, label))
+                    )
                     self._answer_buttons.append(button)
 
     def _answer(self, node_id: str, label: str) -> Any:
@@ -162,7 +205,14 @@ class ExecutionPanel:
             if self.running:
                 self.question.content = "No question waiting."
 
-    def close(self) -> None:
+    def close(self, reason: str | None = None) -> None:
+        """Stops a running execution: `interrupted` with `reason` (the program is
+        stopping), else aborted; returns once its end is stored."""
         if self.executor is not None:
-            self.executor.abort()
+            if reason is not None:
+                self.executor.interrupt(reason)
+            else:
+                self.executor.abort()
             self.executor.wait(5.0)
+        if self._finisher is not None:
+            self._finisher.join(5.0)

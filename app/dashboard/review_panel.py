@@ -14,9 +14,10 @@ from typing import Any
 
 import viser
 
-from app.dashboard.stage import Events, ExecutionFinished, Stage
+from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
 from app.execution import RESULTS
-from app.store import SessionRecord, SessionStore, UnknownSession, iso
+from app.store import SessionRecord, SessionStore, StoreError, UnknownSession, iso
+from planner.plan import PlanFormatError
 
 ANY = "any"
 FILTERS = (ANY, *RESULTS)
@@ -44,15 +45,29 @@ class ReviewPanel:
             self.since_filter: Any = gui.add_text("Since (YYYY-MM-DD)", "")
             gui.add_button("Refresh list").on_click(lambda _: self.refresh())
             self.pick: Any = gui.add_dropdown("Session", [NONE])
-            gui.add_button("Open session").on_click(lambda _: self.open(self.pick.value))
+            self.open_button = gui.add_button("Open session")
+            self.open_button.on_click(lambda _: self.open(self.pick.value))
             self.timeline: Any = gui.add_slider("Timeline", 0, 1, 1, 0, disabled=True)
             self.timeline.on_update(self._timeline_moved)
-            gui.add_button("Replay").on_click(lambda _: self._replay())
+            self.replay_button = gui.add_button("Replay")
+            self.replay_button.on_click(lambda _: self._replay())
             export = gui.add_button("Export JSON")
             export.on_click(lambda event: self._export(event.client))
             self.summary = gui.add_markdown("")
+        self.executing = False
         self.refresh()
-        events.subscribe(ExecutionFinished, lambda _: self.refresh())
+        events.subscribe(ExecutionStarted, lambda _: self._set_executing(True))
+        events.subscribe(ExecutionFinished, lambda _: self._set_executing(False))
+
+    def _set_executing(self, executing: bool) -> None:
+        """A review would replace the tree the execution runs on: not meanwhile."""
+        self.executing = executing
+        self._replaying.clear()
+        for handle in (self.open_button, self.replay_button):
+            handle.disabled = executing
+        self.timeline.disabled = executing or not self.events
+        if not executing:
+            self.refresh()
 
     def refresh(self) -> None:
         since = None
@@ -64,11 +79,15 @@ class ReviewPanel:
                 self.summary.content = f"**Error:** {text!r} is not a date (YYYY-MM-DD)."
                 return
         result = self.result_filter.value
-        sessions = self.store.list_sessions(
-            scenario=str(self.scenario_filter.value).strip() or None,
-            result=None if result == ANY else result,
-            since=since,
-        )
+        try:
+            sessions = self.store.list_sessions(
+                scenario=str(self.scenario_filter.value).strip() or None,
+                result=None if result == ANY else result,
+                since=since,
+            )
+        except StoreError as err:
+            self.summary.content = f"**Error:** {err}"
+            return
         self._ids = {session_label(s): s.id for s in reversed(sessions)}  # newest first
         options = list(self._ids) or [NONE]
         self.pick.options = options
@@ -77,13 +96,13 @@ class ReviewPanel:
 
     def open(self, label: str) -> None:
         session_id = self._ids.get(label)
-        if session_id is None:
+        if session_id is None or self.executing:
             return
         try:
             self.session = self.store.get(session_id)
             self.events = self.store.events(session_id)
             plan = self.store.plan(self.session.plan_hash)
-        except UnknownSession as err:
+        except (UnknownSession, StoreError, PlanFormatError) as err:
             self.summary.content = f"**Error:** {err}"
             return
         self.stage.show_plan(plan)
@@ -100,13 +119,13 @@ class ReviewPanel:
             self.show_step(int(self.timeline.value))
 
     def show_step(self, k: int) -> None:
-        if not self.events or self.session is None:
+        if not self.events or self.session is None or self.executing:
             return
         k = min(max(0, k), len(self.events) - 1)
         event = self.events[k]
         self.stage.go_to(event.node)
         spoken = [
-            f"`{e.node}` {e.action or 'goal'}"
+            f"`{e.node}` {e.action or e.kind}"
             + (f" → **{e.outcome}**" if e.outcome else "")
             + (f": {e.text}" if e.text else "")
             for e in self.events[: k + 1]

@@ -14,16 +14,19 @@ from typing import Any
 
 import tomli_w
 
-from planner.resources import find_scenario, scenario_dir
+from app.dashboard.scenario_folders import RefusedName, ScenarioFolders
+from planner.resources import find_scenario
 from planner.scenario import ScenarioError, load_scenario, parse_scenario
 from planner.scenario_model import Scenario
-
-SCENARIO_DIR = scenario_dir()
 
 
 @dataclass
 class Loaded:
-    """A scenario as text and as a validated model (None with `error` when invalid)."""
+    """A scenario as text and as a validated model (None with `error` when invalid).
+
+    `source` is how the page names it; errors say what is wrong without quoting
+    the file (`ScenarioError.without_value`).
+    """
 
     text: str
     source: str
@@ -31,27 +34,32 @@ class Loaded:
     error: str = ""
 
 
-def shipped_scenarios() -> list[str]:
-    """The shipped scenario files, relative names, default first."""
-    names = sorted(str(p.relative_to(SCENARIO_DIR)) for p in SCENARIO_DIR.rglob("*.toml"))
-    return sorted(names, key=lambda n: (n != "default.toml", n.count("/"), n))
-
-
-def load_file(path: str | Path) -> Loaded:
+def load_file(path: str | Path, source: str | None = None) -> Loaded:
+    """The scenario at `path` (the command line's, or one found in the scenario
+    folders); `source` names it on the page (default: the path)."""
     path = find_scenario(path)
+    shown = str(path) if source is None else source
     try:
         scenario = load_scenario(path)
     except ScenarioError as err:
-        text = path.read_text(errors="replace") if path.is_file() else ""
-        return Loaded(text, str(path), None, str(err))
-    return Loaded(path.read_text(), str(path), scenario)
+        return Loaded("", shown, None, f"{shown}: {err.field}: {err.message}")
+    return Loaded(path.read_text(), shown, scenario)
+
+
+def load_named(folders: ScenarioFolders, name: str) -> Loaded:
+    """A scenario the page asked for by name, read only from the allowed folders."""
+    try:
+        path = folders.find(name.strip())
+    except RefusedName as err:
+        return Loaded("", name, None, str(err))
+    return load_file(path, name.strip())
 
 
 def load_text(text: str, source: str) -> Loaded:
     try:
         return Loaded(text, source, parse_scenario(text, source))
     except ScenarioError as err:
-        return Loaded(text, source, None, str(err))
+        return Loaded(text, source, None, err.without_value())
 
 
 def edit(
@@ -79,15 +87,3 @@ def edit(
             part["region"] = region[pid]
             part.pop("pose", None)
     return load_text(tomli_w.dumps(data), source)
-
-
-def save(text: str, path: str | Path) -> Path:
-    """Write a validated scenario to a new file; refuses to overwrite one."""
-    out = Path(path)
-    if out.suffix != ".toml":
-        raise ValueError(f"{out}: a scenario file name ends in .toml")
-    if out.exists():
-        raise ValueError(f"{out}: exists already; choose a new name")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
-    return out

@@ -6,9 +6,11 @@ tree, and hands each panel the GUI API, itself as a stage, and the events bus.
 
 from __future__ import annotations
 
+import errno
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import viser
@@ -17,12 +19,14 @@ from app.dashboard import scenario_edit
 from app.dashboard.bench_scene import BenchScene
 from app.dashboard.execution_panel import ExecutionPanel
 from app.dashboard.node_details import details_markdown, stats_html
+from app.dashboard.operator import Operator
 from app.dashboard.planning_job import JobStatus, PlanningJob, partial_plan
 from app.dashboard.review_panel import ReviewPanel
-from app.dashboard.stage import Events, PlanChanged
+from app.dashboard.scenario_folders import USER_FOLDER, RefusedName, ScenarioFolders
+from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, PlanChanged
 from app.dashboard.tree_view import WALL_X, TreeView
 from app.dashboard.world import world_at
-from app.store import SessionStore
+from app.store import SessionStore, StoreError, default_data_dir
 from planner.plan import Plan, PlanNode
 
 LIVE_REDRAW_S = 0.5  # at most two redraws of the growing tree per second
@@ -44,27 +48,45 @@ class Dashboard:
         workers: int = 0,
         cache_dir: str | None = None,
         data_dir: str | None = None,
+        scenario_dirs: Sequence[str | Path] = (),
         load_models: bool = True,
     ) -> None:
+        data = Path(data_dir) if data_dir is not None else default_data_dir()
+        self.folders = ScenarioFolders(data / USER_FOLDER, [Path(p) for p in scenario_dirs])
         self.server = viser.ViserServer(host=host, port=port, label="Tandem", verbose=False)
+        if port != 0 and self.server.get_port() != port:
+            # viser moves on to the next free port; a user who asked for this one
+            # (a bookmark, a tunnel, a firewall rule) must hear that it is taken.
+            self.server.stop()
+            raise OSError(errno.EADDRINUSE, f"port {port} is in use")
         self.server.scene.configure_default_lights(cast_shadow=False)
         self.server.gui.configure_theme(control_width="large", show_logo=False)
         self.workers = workers
         self.cache_dir = cache_dir
         self.loaded: scenario_edit.Loaded | None = None
+        self.executing = False
         self.job: PlanningJob | None = None
         self.plan: Plan | None = None
         self.selected: str | None = None
         self.events = Events()
+        self.operator = Operator()
         self._last_live = 0.0
         self._lock = threading.Lock()
         # Panels first: a new page gets messages in creation order, so it can be used
         # while the robot's meshes (~5 MB) are still arriving.
         self._build_gui()
-        self.store = SessionStore(data_dir)
+        try:
+            self.store = SessionStore(data)
+        except StoreError:
+            self.server.stop()
+            raise
         gui = self.server.gui
-        self.execution = ExecutionPanel(gui, self, self.events, self.store)
+        self.execution = ExecutionPanel(gui, self, self.events, self.store, self.operator)
+        if self.store.read_only is not None:
+            self.execution.refuse_executions(self.store.read_only)
         self.review = ReviewPanel(gui, self, self.events, self.store)
+        self.events.subscribe(ExecutionStarted, lambda _: self._lock_scenario(True))
+        self.events.subscribe(ExecutionFinished, lambda _: self._lock_scenario(False))
         self.bench = BenchScene(self.server, load_models=load_models)
         self.tree = TreeView(self.server, self.select)
         self.current_arms: dict[str, list[float]] = {}
@@ -77,11 +99,12 @@ class Dashboard:
         gui = self.server.gui
         gui.add_markdown("**Tandem**: plans for a robot and a human building a table")
         with gui.add_folder("Scenario"):
-            names = scenario_edit.shipped_scenarios()
+            names = self.folders.names()
             self.pick = gui.add_dropdown("Scenario", names, initial_value=names[0])
-            self.pick.on_update(lambda _: self.open_scenario(self.pick.value))
+            self.pick.on_update(lambda _: self.open_named(self.pick.value))
             self.path_text = gui.add_text("File", "")
-            gui.add_button("Open file").on_click(lambda _: self.open_scenario(self.path_text.value))
+            self.open_button = gui.add_button("Open file")
+            self.open_button.on_click(lambda _: self.open_named(self.path_text.value))
             self.error = gui.add_markdown("")
             # Any: viser's types mark `.value` read-only on these handles, yet setting
             # it is how a server changes what the page shows.
@@ -92,7 +115,8 @@ class Dashboard:
             self.parts_folder = gui.add_folder("Parts", expand_by_default=False)
             self._part_inputs: dict[str, tuple[Any, Any]] = {}
             self.save_name = gui.add_text("Save as", "my-scenario.toml")
-            gui.add_button("Save").on_click(lambda _: self._save())
+            self.save_button = gui.add_button("Save")
+            self.save_button.on_click(lambda _: self._save())
         with gui.add_folder("Plan"):
             self.plan_button = gui.add_button("Plan", color="green")
             self.plan_button.on_click(lambda _: self.start_planning())
@@ -112,6 +136,22 @@ class Dashboard:
         with gui.add_folder("View"):
             views = gui.add_button_group("Camera", [*CAMERAS, "Plan tree", "Selected"])
             views.on_click(lambda event: self.camera(event.target.value, event.client))
+
+    def _scenario_controls(self) -> list[Any]:
+        parts = [handle for pair in self._part_inputs.values() for handle in pair]
+        return [
+            self.pick, self.path_text, self.open_button, self.safety, self.verbosity,
+            self.save_name, self.save_button, self.plan_button, *parts,
+        ]  # fmt: skip
+
+    def _lock_scenario(self, locked: bool) -> None:
+        """While an execution runs nobody may change the scenario or the plan under it."""
+        self.executing = locked
+        with self.server.atomic():
+            for handle in self._scenario_controls():
+                handle.disabled = locked
+        if not locked and self.job is not None and self.job.running:
+            self.plan_button.disabled = True
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
         self.camera("Bench", client)
@@ -136,11 +176,15 @@ class Dashboard:
 
     # -- scenario -----------------------------------------------------------------
 
-    def open_scenario(self, path: str) -> None:
-        if not path.strip():
-            self.error.content = "**Error:** give a scenario file path."
-            return
-        self.show_loaded(scenario_edit.load_file(path.strip()))
+    def open_scenario(self, path: str | Path) -> None:
+        """The command line's scenario: any file the user running the server named."""
+        self.show_loaded(scenario_edit.load_file(path))
+
+    def open_named(self, name: str) -> None:
+        """A scenario the page asked for: only from the scenario folders."""
+        if self.executing:
+            return  # the controls are disabled; a late event changes nothing
+        self.show_loaded(scenario_edit.load_named(self.folders, name))
 
     def show_loaded(self, loaded: scenario_edit.Loaded) -> None:
         if loaded.scenario is None:
@@ -176,7 +220,7 @@ class Dashboard:
                 self._part_inputs[part.id] = (where, danger)
 
     def _edited(self) -> None:
-        if self.loaded is None or self.loaded.scenario is None:
+        if self.loaded is None or self.loaded.scenario is None or self.executing:
             return
         changed = scenario_edit.edit(
             self.loaded.text,
@@ -200,16 +244,20 @@ class Dashboard:
         if self.loaded is None:
             return
         try:
-            out = scenario_edit.save(self.loaded.text, self.save_name.value)
-        except (ValueError, OSError) as err:
+            out = self.folders.save(self.loaded.text, self.save_name.value)
+        except RefusedName as err:
             self.error.content = f"**Error:** {err}"
             return
-        self.error.content = f"Saved to `{out}`."
+        except OSError as err:
+            self.error.content = f"**Error:** cannot save in your scenario folder: {err.strerror}"
+            return
+        self.pick.options = self.folders.names()
+        self.error.content = f"Saved as `{out.name}` in your scenario folder."
 
     # -- planning -----------------------------------------------------------------
 
     def start_planning(self) -> None:
-        if self.loaded is None or self.loaded.scenario is None:
+        if self.loaded is None or self.loaded.scenario is None or self.executing:
             return
         if self.job is not None and self.job.running:
             return
@@ -332,11 +380,13 @@ class Dashboard:
             if len(lineage) > 1:
                 self.select(lineage[-2])
 
-    def close(self) -> None:
+    def close(self, reason: str | None = None) -> None:
+        """Stops everything; a running execution ends `interrupted` with `reason`
+        when the program is stopping (a signal), else aborted."""
         if self.job is not None:
             self.job.cancel()
-        for panel in (self.execution, self.review):
-            panel.close()
+        self.execution.close(reason)
+        self.review.close()
         self.events.clear()
         self.server.stop()
         self.store.close()
