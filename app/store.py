@@ -181,12 +181,18 @@ class SessionStore:
                 self.read_only = f"{self.db_path}: not writable ({err})"
         if not self.db_path.is_file():
             raise StoreError(f"{self.db_path}: no session database here; check --data-dir")
-        try:
-            # immutable: a read-only folder cannot hold WAL's shared-memory file.
-            self.db = Database(self._connect("?mode=ro&immutable=1"))
-            self.db.execute("select count(*) from sessions").fetchone()
-        except sqlite3.DatabaseError as err:
-            raise _unusable(self.db_path, err) from None
+        failure: sqlite3.DatabaseError | None = None
+        # mode=ro sees what a running writer has committed; a read-only folder
+        # cannot hold WAL's shared-memory file, so then the file is read as it is.
+        for query in ("?mode=ro", "?mode=ro&immutable=1"):
+            try:
+                self.db = Database(self._connect(query))
+                self.db.execute("select count(*) from sessions").fetchone()
+                return
+            except sqlite3.DatabaseError as err:
+                failure = err
+        assert failure is not None
+        raise _unusable(self.db_path, failure) from None
 
     def _connect(self, query: str) -> sqlite3.Connection:
         return sqlite3.connect(
