@@ -62,8 +62,8 @@ def announced(process: subprocess.Popen[str]) -> str:
     raise AssertionError(f"the dashboard ended: {process.wait()}")
 
 
-def open_page(browser: Browser, url: str) -> Page:
-    page = browser.new_page(viewport={"width": 1400, "height": 900})
+def open_page(chromium: Browser, url: str) -> Page:
+    page = chromium.new_page(viewport={"width": 1400, "height": 900})
     page.goto(url)
     page.get_by_role("button", name="Plan", exact=True).wait_for(timeout=60_000)
     return page
