@@ -1,0 +1,154 @@
+"""Soak benchmark: `tandem dashboard` left running with several pages for minutes.
+
+`python -m app.benchmark.soak [--pages 5] [--minutes 10]` starts the dashboard
+in its own process and opens the pages in headless chromium. The pages take
+turns as operator: plan, execute, answer every question with a click; the
+others watch. It prints one table: executions run and sessions stored, page
+and server errors, the server's RSS after the first minute and at the end,
+and the time from a click on an answer to the next step in the log.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import shutil
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from app.store import SessionStore
+from planner.plan import format_table
+
+# The simulated human's answer buttons are worded "Human holds leg2", "Human says yes", ...
+# (and not the "Human view" camera button).
+ANSWER = re.compile(r"^Human('s hands| holds| says| attaches| puts| keeps)")
+
+
+def _port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def rss_mb(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m app.benchmark.soak")
+    parser.add_argument("--pages", type=int, default=5)
+    parser.add_argument("--minutes", type=float, default=10.0)
+    parser.add_argument("--scenario", default="default.toml")
+    args = parser.parse_args(argv)
+    from playwright.sync_api import Error as PageError
+    from playwright.sync_api import Page, sync_playwright
+
+    data = Path(tempfile.mkdtemp(prefix="tandem-soak-"))
+    port = _port()
+    server = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "dashboard", "--port", str(port), "--workers", "1",
+         "--data-dir", str(data), "--scenario", args.scenario],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    assert server.stdout is not None and server.stderr is not None
+    for line in server.stdout:
+        if line.startswith("Tandem dashboard on"):
+            break
+    server_errors: list[str] = []
+
+    def watch(stream: object) -> None:
+        for line in stream:  # type: ignore[attr-defined]
+            if "Traceback" in line or "Error" in line:
+                server_errors.append(line.strip())
+
+    threading.Thread(target=watch, args=(server.stderr,), daemon=True).start()
+    page_errors: list[str] = []
+    executions = 0
+    answer_s: list[float] = []
+    rss_first: float | None = None
+    t0 = time.monotonic()
+    end = t0 + 60 * args.minutes
+    chromium = shutil.which("chromium") or "/usr/bin/chromium"
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+        pages: list[Page] = []
+        for _ in range(args.pages):
+            page = browser.new_page(viewport={"width": 1400, "height": 900})
+            page.on("pageerror", lambda err: page_errors.append(str(err)))
+            page.goto(f"http://127.0.0.1:{port}")
+            page.get_by_role("button", name="Plan", exact=True).wait_for(timeout=120_000)
+            pages.append(page)
+        # Steps keep the default 0.5 s: the pace at which a person would watch.
+        while time.monotonic() < end:
+            operator = pages[executions % len(pages)]
+            operator.get_by_role("button", name="Plan", exact=True).click()
+            execute = operator.get_by_role("button", name="Execute plan", exact=True)
+            execute.wait_for()
+            deadline = time.monotonic() + 120
+            while not execute.is_enabled() and time.monotonic() < deadline:
+                time.sleep(0.1)
+            execute.click()
+            executions += 1
+            print(f"execution {executions} on page {executions % len(pages)}", file=sys.stderr, flush=True)
+            # The log's last line names the session (ids count the executions).
+            finished = operator.get_by_text(f"Session {executions}: ", exact=False)
+            stuck = time.monotonic() + 300
+            while finished.count() == 0 and time.monotonic() < stuck:
+                buttons = operator.get_by_role("button", name=ANSWER)
+                if buttons.count() == 0:
+                    time.sleep(0.05)
+                    continue
+                steps = operator.locator("code").count()
+                t = time.perf_counter()
+                try:
+                    buttons.last.click(timeout=2_000)
+                except PageError:
+                    continue  # answered meanwhile (it vanished): look again
+                while operator.locator("code").count() == steps:
+                    if time.perf_counter() - t > 10:
+                        break
+                    time.sleep(0.01)
+                answer_s.append(time.perf_counter() - t)
+            if finished.count() == 0:
+                page_errors.append(f"execution {executions} did not end within 5 minutes")
+                break
+            if rss_first is None and time.monotonic() - t0 > 60:
+                rss_first = rss_mb(server.pid)
+        rss_end = rss_mb(server.pid)
+        browser.close()
+    server.send_signal(signal.SIGTERM)
+    server.wait(60)
+    with SessionStore(data, read_only=True) as store:
+        sessions = store.list_sessions()
+    shutil.rmtree(data, ignore_errors=True)
+    first = rss_first if rss_first is not None else rss_end
+    rows = [
+        ("run", f"{args.pages} pages", f"{(time.monotonic() - t0) / 60:.1f} min", ""),
+        ("executions / sessions stored", "", f"{executions} / {len(sessions)}",
+         f"{sum(s.result == 'goal' for s in sessions)} at the goal"),
+        ("page errors / server errors", "", f"{len(page_errors)} / {len(server_errors)}",
+         "; ".join((page_errors + server_errors)[:2])[:60]),
+        ("server RSS", "after 1 min → end", f"{first:.0f} → {rss_end:.0f} MB",
+         f"growth {rss_end - first:+.1f} MB"),
+        ("answer click → next step in page", f"{len(answer_s)} clicks",
+         f"median {1000 * statistics.median(answer_s or [0]):.0f} ms",
+         f"max {1000 * max(answer_s or [0]):.0f} ms"),
+    ]  # fmt: skip
+    print(format_table(("measure", "on", "result", "spread"), rows))
+    ok = not page_errors and not server_errors and executions == len(sessions)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
