@@ -96,8 +96,9 @@ def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[st
             if est.where is Where.HELD_BY_HUMAN:
                 return _fit("no", est.confidence, f"{part} is in the human's hands", options)
             if est.where in (Where.ON_BENCH, Where.ATTACHED):
-                return _fit("yes", est.confidence, f"{part} is {_where(est.placement)}", options)
-            return Reading(None, est.confidence, f"{part} is {_where(est.placement)}")
+                words = f"{part} is {where_words(est.placement)}"
+                return _fit("yes", est.confidence, words, options)
+            return Reading(None, est.confidence, f"{part} is {where_words(est.placement)}")
         case SenseHumanAttachingWhere(part, onto):
             est = world.parts.get(part)
             if est is None:
@@ -105,7 +106,7 @@ def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[st
             p = est.placement
             if p.where is Where.ATTACHED and p.attached_to == onto and p.slot is not None:
                 return _fit(p.slot, est.confidence, f"{part} is on {onto} at {p.slot}", options)
-            return Reading(None, est.confidence, f"{part} is {_where(p)}, not on {onto}")
+            return Reading(None, est.confidence, f"{part} is {where_words(p)}, not on {onto}")
     return Reading(None, 0.0, "not a sensing node")
 
 
@@ -115,7 +116,8 @@ def _fit(label: str, confidence: float, words: str, options: Sequence[str]) -> R
     return Reading(None, confidence, f"{words}: '{label}' is not one of {', '.join(options)}")
 
 
-def _where(p: Placement) -> str:
+def where_words(p: Placement) -> str:
+    """Where a placement puts a part, in words."""
     match p.where:
         case Where.ON_BENCH:
             return f"on the bench in {p.region}"

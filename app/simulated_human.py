@@ -16,13 +16,12 @@ import math
 import random
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from app.dashboard.world import place_parts
 from app.execution import ExecutionEvent
 from perception.frames import Frame, Image
 from perception.layout import BenchLayout
-from perception.sim import SimulatedCamera
 from planner.feasibility.scene import PartBox
 from planner.plan import Plan, PlanNode
 from planner.vocabulary import (
@@ -42,6 +41,9 @@ from planner.vocabulary import (
     parse_action,
     parse_fluent,
 )
+
+if TYPE_CHECKING:  # the camera's owner creates it; importing pybullet is its cost
+    from perception.sim import SimulatedCamera
 
 Vec3 = tuple[float, float, float]
 

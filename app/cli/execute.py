@@ -44,6 +44,10 @@ def register(parser: argparse.ArgumentParser) -> None:
         help="with camera:sim, how the simulated human acts (random, seeded by --seed)",
     )
     parser.add_argument("--seed", type=int, help="seed for --responses random or camera:sim")
+    parser.add_argument(
+        "--calibration", metavar="FILE",
+        help="with a real camera: intrinsics from `tandem camera calibrate` (default: 60 deg)",
+    )  # fmt: skip
     parser.add_argument("--data-dir", help="session store folder (default: $TANDEM_DATA_DIR, ...)")
     parser.add_argument(
         "--step-delay", type=float, default=0.0, help="seconds between steps (default 0)"
@@ -114,17 +118,26 @@ def run(args: argparse.Namespace) -> int:
     if seeded and seed is None:
         seed = secrets.randbelow(2**31)
         print(f"seed {seed}", file=sys.stderr)
+    if args.calibration is not None and not args.responses.startswith("camera:"):
+        raise BadInput("--calibration goes with --responses camera:SOURCE")
     camera = None
     listeners: list[Callable[[ExecutionEvent], None]] = []
     if args.responses.startswith("camera:"):
         if scenario is None:
             raise BadInput("--responses camera:... needs the scenario file, not a plan file")
         # Imported here: the simulated camera loads pybullet, which other runs never need.
+        from app.camera_input import CalibrationFileError, load_calibration
         from app.camera_responses import camera_responses
         from perception.frames import SourceError
 
         try:
-            camera = camera_responses(args.responses[len("camera:") :], scenario, plan, seed)
+            calibration = None if args.calibration is None else load_calibration(args.calibration)
+        except CalibrationFileError as err:
+            raise BadInput(f"--calibration {err}") from err
+        try:
+            camera = camera_responses(
+                args.responses[len("camera:") :], scenario, plan, seed, calibration
+            )
         except SourceError as err:
             raise BadInput(f"--responses {args.responses}: {err}") from err
         listeners = camera.listeners

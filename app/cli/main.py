@@ -19,6 +19,7 @@ from collections.abc import Callable, Sequence
 
 from app.cli import (
     benchmark,
+    camera,
     check,
     dashboard,
     execute,
@@ -27,6 +28,7 @@ from app.cli import (
     plan,
     scenario,
     sessions,
+    track,
 )
 from app.cli.exit_codes import BAD_INPUT, HANDLED, exit_code, message
 
@@ -42,6 +44,8 @@ SUBCOMMANDS: list[tuple[str, str, Register]] = [
     ("execute", "run a plan, one branch", execute.register),
     ("sessions", "stored executions", sessions.register),
     ("markers", "the printable QR codes of a scenario's parts and bench", markers.register),
+    ("camera", "camera set-up: calibrate", camera.register),
+    ("track", "what the camera sees: each part's placement as it changes", track.register),
 ]
 
 
