@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from app.outcomes import Node, Outcome, describe
+from app.outcomes import Evidence, Node, Outcome, describe
 from app.simulated_human import SimulatedHuman
 from perception.frames import Frame, FrameSource
 from perception.pipeline import BenchPerception
@@ -130,6 +130,11 @@ def where_words(p: Placement) -> str:
     return "out of sight"
 
 
+def placements(world: WorldEstimate) -> dict[str, str]:
+    """Each part's placement in words, for the stored evidence and the panel."""
+    return {pid: where_words(p.placement) for pid, p in world.parts.items()}
+
+
 def jpeg(frame: Frame, width: int = JPEG_WIDTH, quality: int = JPEG_QUALITY) -> bytes:
     """A small JPEG of a frame, for the session store and the review."""
     h, w = frame.image.shape[:2]
@@ -219,9 +224,24 @@ class CameraSource:
         if reading.label is None:
             return None
         self.last_frame_jpeg = jpeg(last)
+        detail: dict[str, Any] = {
+            "camera": {
+                "label": reading.label,
+                "confidence": round(reading.confidence, 3),
+                "reason": reading.reason,
+                "frames": count,
+                "frame_index": last.index,
+                "seconds": round(seconds, 3),
+                "placements": placements(world),
+            }
+        }
+        if self.human is not None and node_id in self.human.did:
+            # What the simulated human really did, so agreement is counted from the store.
+            detail["truth"] = self.human.did[node_id]
         return Outcome(
             reading.label, self.name, round(reading.confidence, 3),
             f"{describe(action, reading.label)} (camera: {reading.reason})",
+            Evidence(detail, self.last_frame_jpeg),
         )
 
     def _keep(
