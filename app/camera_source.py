@@ -135,6 +135,33 @@ def placements(world: WorldEstimate) -> dict[str, str]:
     return {pid: where_words(p.placement) for pid, p in world.parts.items()}
 
 
+def camera_outcome(
+    action: Action | None, reading: Reading, world: WorldEstimate, frame: Frame,
+    frames: int, seconds: float, truth: str | None, picture: bytes,
+) -> Outcome:
+    """A camera answer with its evidence: the reading, the deciding frame, and (with a
+    simulated human) what the human really did, so agreement is counted from the store."""
+    assert reading.label is not None
+    detail: dict[str, Any] = {
+        "camera": {
+            "label": reading.label,
+            "confidence": round(reading.confidence, 3),
+            "reason": reading.reason,
+            "frames": frames,
+            "frame_index": frame.index,
+            "seconds": round(seconds, 3),
+            "placements": placements(world),
+        }
+    }
+    if truth is not None:
+        detail["truth"] = truth
+    return Outcome(
+        reading.label, "camera", round(reading.confidence, 3),
+        f"{describe(action, reading.label)} (camera: {reading.reason})",
+        Evidence(detail, picture),
+    )
+
+
 def jpeg(frame: Frame, width: int = JPEG_WIDTH, quality: int = JPEG_QUALITY) -> bytes:
     """A small JPEG of a frame, for the session store and the review."""
     h, w = frame.image.shape[:2]
@@ -224,24 +251,9 @@ class CameraSource:
         if reading.label is None:
             return None
         self.last_frame_jpeg = jpeg(last)
-        detail: dict[str, Any] = {
-            "camera": {
-                "label": reading.label,
-                "confidence": round(reading.confidence, 3),
-                "reason": reading.reason,
-                "frames": count,
-                "frame_index": last.index,
-                "seconds": round(seconds, 3),
-                "placements": placements(world),
-            }
-        }
-        if self.human is not None and node_id in self.human.did:
-            # What the simulated human really did, so agreement is counted from the store.
-            detail["truth"] = self.human.did[node_id]
-        return Outcome(
-            reading.label, self.name, round(reading.confidence, 3),
-            f"{describe(action, reading.label)} (camera: {reading.reason})",
-            Evidence(detail, self.last_frame_jpeg),
+        truth = None if self.human is None else self.human.did.get(node_id)
+        return camera_outcome(
+            action, reading, world, last, count, seconds, truth, self.last_frame_jpeg
         )
 
     def _keep(
