@@ -218,9 +218,9 @@ class CameraSource:
         action = node.action
         if not is_sensing(action):
             return None
+        start = time.monotonic()  # before the human acts: its move is part of the time
         if self.human is not None:
             self.human.act(node_id, node, options)
-        start = time.monotonic()
         world: WorldEstimate | None = None
         last: Frame | None = None
         count = 0

@@ -203,12 +203,17 @@ class LiveCameraSource:
         action = node.action
         if not is_sensing(action):
             return None
+        wanted: Outcome | None = None
         if self.human is not None:
-            wanted = None if self.intent is None else self.intent.choose(node_id, node, options)
-            if wanted is None:
-                return None  # no click (an abort): the fallback asks
-            self.human.act(node_id, node, options, wanted.label)
+            if self.intent is not None:
+                wanted = self.intent.choose(node_id, node, options)
+                if wanted is None:
+                    return None  # no click (an abort): the fallback asks
+        # From before the human acts (its move is part of the time), after any click.
         start = time.monotonic()
+        if self.human is not None:
+            # Without an intent the simulated human makes its own (seeded) choice.
+            self.human.act(node_id, node, options, None if wanted is None else wanted.label)
         latest = self.live.latest()
         seq = 0 if latest is None else latest.seq
         count = 0
