@@ -54,3 +54,11 @@ def test_pdf_sheet_and_one_line_errors(
     assert main(["markers", str(bad), "-o", str(tmp_path / "sheet.pdf")]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.endswith("camera.marker_size: expected less than or equal to 0.16, got float 0.5")
+
+
+def test_the_sheet_says_where_each_code_goes() -> None:
+    from app.cli.markers import where_on_part
+
+    assert where_on_part((0.09, 0.0)) == "top face, +9 cm x from the centre"
+    assert where_on_part((0.0, -0.124)) == "top face, -12 cm y from the centre"
+    assert where_on_part((0.0, 0.0)) == "centre of the top face"

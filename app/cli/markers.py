@@ -27,6 +27,17 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(run=run)
 
 
+def where_on_part(offset: tuple[float, float]) -> str:
+    """Where a part's code goes (perception reads the part's centre from it), in the
+    part's own axes: the bench's, for a part lying as the scenario puts it."""
+    shifts = [
+        f"{v * 100:+.0f} cm {axis}" for v, axis in zip(offset, "xy", strict=True) if abs(v) >= 0.005
+    ]
+    if not shifts:
+        return "centre of the top face"
+    return f"top face, {' '.join(shifts)} from the centre"
+
+
 def run(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.suffix.lower() not in SUFFIXES:
@@ -44,16 +55,18 @@ def run(args: argparse.Namespace) -> int:
 
     layout = bench_layout(scenario)
     codes = [PartCode(pid, marker) for pid, marker in marker_ids(scenario).items()]
+    notes = {pid: where_on_part(shape.code_offset) for pid, shape in layout.parts.items()}
     try:
         written = render_marker_sheet(
-            codes, layout.references, layout.marker_size_m, out, dpi=args.dpi
+            codes, layout.references, layout.marker_size_m, out, dpi=args.dpi, notes=notes
         )
     except OSError as err:
         raise BadInput(f"-o {args.output}: cannot write: {err.strerror or err}") from err
     size_mm = layout.marker_size_m * 1000
     print(
         f"{len(codes)} part codes and {len(layout.references)} reference codes, "
-        f"{size_mm:g} mm wide: print at 100 % (no fit to page)"
+        f"{size_mm:g} mm wide: print at 100 % (no fit to page); x points away from the "
+        "robot, y to its left"
     )
     for path in written:
         print(path)
