@@ -220,8 +220,8 @@ class LiveCameraSource:
         while not self._interrupted.is_set() and time.monotonic() - start < self.timeout_s:
             view = self.live.wait_view(seq, 1.0)
             if view is None:
-                if self.live.ended is not None:
-                    return None
+                if self.live.ended is not None or not self.live.running:
+                    return None  # the frames ended or the camera was stopped
                 continue
             seq, count = view.seq, count + 1
             world = view.perceived.world

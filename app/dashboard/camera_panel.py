@@ -136,7 +136,7 @@ class CameraPanel:
             "pose kept from an earlier frame" if observation.camera else "not located"
         )
         self.rate.content = (
-            f"{view.fps:.0f} fps, perception {view.seconds * 1e3:.1f} ms a frame, "
+            f"{view.fps:.0f} fps, latency {view.seconds * 1e3:.1f} ms (frame in, estimate out), "
             f"{len(observation.detections)} codes; camera {located}"
         )
         self.beliefs.content = "\n\n".join(
