@@ -139,3 +139,25 @@ def test_sources_that_cannot_be_read_are_one_line(tmp_path: Path) -> None:
     assert one_line("camera", "calibrate", str(blank), "--board", "9", "-o", "c.json") == (
         "--board 9: expected inner corners COLSxROWS, each 3 or more (9x6)"
     )
+
+
+def test_execute_takes_the_calibration_of_a_real_camera(
+    calibration: Path, bench_frames: Path, tmp_path: Path
+) -> None:
+    env = {**os.environ, "TANDEM_DATA_DIR": str(tmp_path)}
+    # The still bench answers the first sensing node (the human's hands are free);
+    # the frames end before the rest, which fall back.
+    done = tandem("execute", "default.toml", "--responses", f"camera:{bench_frames}",
+                  "--calibration", str(calibration), "--seed", "1", env=env)  # fmt: skip
+    assert "--seed goes with" in done.stderr  # a real camera's run is not seeded
+    done = tandem("execute", "default.toml", "--responses", f"camera:{bench_frames}",
+                  "--calibration", str(calibration), env=env)  # fmt: skip
+    assert "-> no (camera)" in done.stderr, done.stderr
+    missing = tmp_path / "missing.json"
+    line = one_line("execute", "default.toml", "--responses", "camera:sim",
+                    "--calibration", str(missing))  # fmt: skip
+    assert line == f"--calibration {missing}: cannot read: No such file or directory"
+    assert one_line("execute", "default.toml", "--responses", "random",
+                    "--calibration", str(calibration)) == (
+        "--calibration goes with --responses camera:SOURCE"
+    )  # fmt: skip

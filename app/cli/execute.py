@@ -9,6 +9,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
 from app.execution import ExecutionEvent, Executor
@@ -26,6 +27,9 @@ from planner.planning import plan_scenario
 from planner.resources import find_scenario
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
+
+if TYPE_CHECKING:  # OpenCV is loaded only for camera runs
+    from perception.intrinsics import CameraIntrinsics
 
 
 def register(parser: argparse.ArgumentParser) -> None:
@@ -98,6 +102,19 @@ def _camera_fallback(plan: Plan) -> Callable[[str, str], None]:
     return warn
 
 
+def _calibration(args: argparse.Namespace) -> CameraIntrinsics | None:
+    if args.calibration is None:
+        return None
+    if not args.responses.startswith("camera:"):
+        raise BadInput("--calibration goes with --responses camera:SOURCE")
+    from app.camera_input import CalibrationFileError, load_calibration
+
+    try:
+        return load_calibration(args.calibration)
+    except CalibrationFileError as err:
+        raise BadInput(f"--calibration {err}") from err
+
+
 def _print_event(event: ExecutionEvent) -> None:
     line = f"{event.seq:3d} {event.node:>5} {event.action or 'goal'}"
     if event.outcome is not None:
@@ -113,27 +130,21 @@ def run(args: argparse.Namespace) -> int:
     seeded = args.responses in ("random", "camera:sim")
     if args.seed is not None and not seeded:
         raise BadInput("--seed goes with --responses random or camera:sim")
+    calibration = _calibration(args)  # before planning: a bad file is said at once
     plan, scenario = load_plan(args.input)
     seed = args.seed
     if seeded and seed is None:
         seed = secrets.randbelow(2**31)
         print(f"seed {seed}", file=sys.stderr)
-    if args.calibration is not None and not args.responses.startswith("camera:"):
-        raise BadInput("--calibration goes with --responses camera:SOURCE")
     camera = None
     listeners: list[Callable[[ExecutionEvent], None]] = []
     if args.responses.startswith("camera:"):
         if scenario is None:
             raise BadInput("--responses camera:... needs the scenario file, not a plan file")
         # Imported here: the simulated camera loads pybullet, which other runs never need.
-        from app.camera_input import CalibrationFileError, load_calibration
         from app.camera_responses import camera_responses
         from perception.frames import SourceError
 
-        try:
-            calibration = None if args.calibration is None else load_calibration(args.calibration)
-        except CalibrationFileError as err:
-            raise BadInput(f"--calibration {err}") from err
         try:
             camera = camera_responses(
                 args.responses[len("camera:") :], scenario, plan, seed, calibration
