@@ -29,6 +29,7 @@ bench: $(STAMP) system
 	$(BIN)/tandem bench
 	$(BIN)/python -m app.benchmark.dashboard_benchmark
 	$(BIN)/python -m perception.bench
+	$(BIN)/python -m app.benchmark.camera_benchmark
 	$(BIN)/python -m speech.bench
 
 lint: $(STAMP)

@@ -10,10 +10,11 @@ where its code sits, and the code's payload.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from perception.codes_image import QUIET_ZONE_MODULES, modules_across
 from perception.layout import BenchLayout, PartShape, Region
-from perception.markers import DEFAULT_MARKER_SIZE_M, corner_references, encode_part
-from perception.sim import SimPart, SimScene
+from perception.markers import corner_references, encode_part
 from planner.feasibility.scene import (
     BENCH_HALF_WIDTH,
     BENCH_TOP_Z,
@@ -22,6 +23,9 @@ from planner.feasibility.scene import (
     region_extents,
 )
 from planner.scenario_model import Scenario
+
+if TYPE_CHECKING:  # the simulated camera loads pybullet, which a layout never needs
+    from perception.sim import SimScene
 
 # Box colours by kind, as the paper bench draws them, so frames look alike.
 COLOURS = {
@@ -116,9 +120,10 @@ def _lift_split_x(scenario: Scenario) -> float:
     return extents[-1][0] if len(extents) > 1 else (extents[0][0] + extents[0][1]) / 2
 
 
-def bench_layout(
-    scenario: Scenario, marker_size_m: float = DEFAULT_MARKER_SIZE_M
-) -> BenchLayout:
+def bench_layout(scenario: Scenario, marker_size_m: float | None = None) -> BenchLayout:
+    """Perception's bench; codes at the scenario's `[camera] marker_size` unless given."""
+    if marker_size_m is None:
+        marker_size_m = scenario.camera.marker_size
     bench_x, bench_y = bench_extent(scenario)
     regions = tuple(
         Region(rid, lo, hi)
@@ -137,8 +142,12 @@ def bench_layout(
     )
 
 
-def sim_scene(scenario: Scenario, marker_size_m: float = DEFAULT_MARKER_SIZE_M) -> SimScene:
+def sim_scene(scenario: Scenario, marker_size_m: float | None = None) -> SimScene:
     """The parts resting where the scenario puts them, each with its own code."""
+    from perception.sim import SimPart, SimScene
+
+    if marker_size_m is None:
+        marker_size_m = scenario.camera.marker_size
     bench_x, bench_y = bench_extent(scenario)
     boxes = part_boxes(scenario)
     shapes = part_shapes(scenario, marker_size_m)

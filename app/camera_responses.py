@@ -3,7 +3,8 @@
 `camera:sim` renders the scenario's bench with the simulated camera while a
 seeded simulated human acts out the plan (it moves parts; the camera, not the
 human, answers). Any other SOURCE is a real frame source (`webcam[:N]`, a
-video file, an image folder) with the default intrinsics of its image size.
+video file, an image folder) with a calibration's intrinsics, or the default of
+its image size (app/camera_input.py).
 Nodes the camera cannot answer (questions, or no stable fit) fall back.
 """
 
@@ -13,18 +14,17 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from app.camera_bench import bench_layout, sim_scene
+from app.camera_input import SIM_SIZE, open_camera
 from app.camera_source import CameraSource
 from app.execution import ExecutionEvent
 from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
-from perception.frames import FrameSource, open_source
+from perception.frames import FrameSource
 from perception.intrinsics import CameraIntrinsics
 from perception.pipeline import BenchPerception
 from perception.sim import SimulatedCamera
 from planner.feasibility.scene import part_boxes
 from planner.plan import Plan
 from planner.scenario_model import Scenario
-
-SIM_SIZE = (640, 640)  # every code of the default bench decodes in a clean 640 px frame
 
 
 @dataclass
@@ -38,7 +38,8 @@ class CameraResponses:
 
 
 def camera_responses(
-    spec: str, scenario: Scenario, plan: Plan, seed: int | None
+    spec: str, scenario: Scenario, plan: Plan, seed: int | None,
+    calibration: CameraIntrinsics | None = None,
 ) -> CameraResponses:
     """The camera source for `camera:SOURCE`; `SourceError` if the source cannot be opened."""
     layout = bench_layout(scenario)
@@ -48,7 +49,6 @@ def camera_responses(
         human = SimulatedHuman(plan, world, seed)
         perception = BenchPerception(camera.camera.intrinsics, layout)
         return CameraResponses(CameraSource(camera, perception, human), [human.on_event], camera)
-    frames = open_source(spec)
-    width, height = frames.size
-    perception = BenchPerception(CameraIntrinsics.from_fov(width, height), layout)
-    return CameraResponses(CameraSource(frames, perception), [], frames)
+    real = open_camera(spec, scenario, calibration)
+    perception = BenchPerception(real.intrinsics, layout)
+    return CameraResponses(CameraSource(real.frames, perception), [], real.frames)

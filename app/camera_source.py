@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from app.outcomes import Node, Outcome, describe
+from app.outcomes import Evidence, Node, Outcome, describe
 from app.simulated_human import SimulatedHuman
 from perception.frames import Frame, FrameSource
 from perception.pipeline import BenchPerception
@@ -96,8 +96,9 @@ def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[st
             if est.where is Where.HELD_BY_HUMAN:
                 return _fit("no", est.confidence, f"{part} is in the human's hands", options)
             if est.where in (Where.ON_BENCH, Where.ATTACHED):
-                return _fit("yes", est.confidence, f"{part} is {_where(est.placement)}", options)
-            return Reading(None, est.confidence, f"{part} is {_where(est.placement)}")
+                words = f"{part} is {where_words(est.placement)}"
+                return _fit("yes", est.confidence, words, options)
+            return Reading(None, est.confidence, f"{part} is {where_words(est.placement)}")
         case SenseHumanAttachingWhere(part, onto):
             est = world.parts.get(part)
             if est is None:
@@ -105,7 +106,7 @@ def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[st
             p = est.placement
             if p.where is Where.ATTACHED and p.attached_to == onto and p.slot is not None:
                 return _fit(p.slot, est.confidence, f"{part} is on {onto} at {p.slot}", options)
-            return Reading(None, est.confidence, f"{part} is {_where(p)}, not on {onto}")
+            return Reading(None, est.confidence, f"{part} is {where_words(p)}, not on {onto}")
     return Reading(None, 0.0, "not a sensing node")
 
 
@@ -115,7 +116,8 @@ def _fit(label: str, confidence: float, words: str, options: Sequence[str]) -> R
     return Reading(None, confidence, f"{words}: '{label}' is not one of {', '.join(options)}")
 
 
-def _where(p: Placement) -> str:
+def where_words(p: Placement) -> str:
+    """Where a placement puts a part, in words."""
     match p.where:
         case Where.ON_BENCH:
             return f"on the bench in {p.region}"
@@ -126,6 +128,38 @@ def _where(p: Placement) -> str:
         case Where.ATTACHED:
             return f"attached to {p.attached_to} at {p.slot}"
     return "out of sight"
+
+
+def placements(world: WorldEstimate) -> dict[str, str]:
+    """Each part's placement in words, for the stored evidence and the panel."""
+    return {pid: where_words(p.placement) for pid, p in world.parts.items()}
+
+
+def camera_outcome(
+    action: Action | None, reading: Reading, world: WorldEstimate, frame: Frame,
+    frames: int, seconds: float, truth: str | None, picture: bytes,
+) -> Outcome:
+    """A camera answer with its evidence: the reading, the deciding frame, and (with a
+    simulated human) what the human really did, so agreement is counted from the store."""
+    assert reading.label is not None
+    detail: dict[str, Any] = {
+        "camera": {
+            "label": reading.label,
+            "confidence": round(reading.confidence, 3),
+            "reason": reading.reason,
+            "frames": frames,
+            "frame_index": frame.index,
+            "seconds": round(seconds, 3),
+            "placements": placements(world),
+        }
+    }
+    if truth is not None:
+        detail["truth"] = truth
+    return Outcome(
+        reading.label, "camera", round(reading.confidence, 3),
+        f"{describe(action, reading.label)} (camera: {reading.reason})",
+        Evidence(detail, picture),
+    )
 
 
 def jpeg(frame: Frame, width: int = JPEG_WIDTH, quality: int = JPEG_QUALITY) -> bytes:
@@ -184,9 +218,9 @@ class CameraSource:
         action = node.action
         if not is_sensing(action):
             return None
+        start = time.monotonic()  # before the human acts: its move is part of the time
         if self.human is not None:
             self.human.act(node_id, node, options)
-        start = time.monotonic()
         world: WorldEstimate | None = None
         last: Frame | None = None
         count = 0
@@ -217,9 +251,9 @@ class CameraSource:
         if reading.label is None:
             return None
         self.last_frame_jpeg = jpeg(last)
-        return Outcome(
-            reading.label, self.name, round(reading.confidence, 3),
-            f"{describe(action, reading.label)} (camera: {reading.reason})",
+        truth = None if self.human is None else self.human.did.get(node_id)
+        return camera_outcome(
+            action, reading, world, last, count, seconds, truth, self.last_frame_jpeg
         )
 
     def _keep(

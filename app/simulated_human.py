@@ -3,7 +3,7 @@ drawn by a simulated camera that perception then watches.
 
 `SimulatedWorld` holds the physical facts (which arm holds which part, what the
 human holds, what is attached where) and places the parts as the dashboard's
-world model does (`app.dashboard.world.place_parts`), moving them in the camera's
+world model does (`app.bench_world.place_parts`), moving them in the camera's
 scene. `SimulatedHuman` chooses, seeded, what the human does at a sensing node,
 consistently with the plan, and does it in the world; it never answers a node:
 the camera has to see what it did. As an executor listener it applies the
@@ -16,13 +16,12 @@ import math
 import random
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
-from app.dashboard.world import place_parts
+from app.bench_world import place_parts
 from app.execution import ExecutionEvent
 from perception.frames import Frame, Image
 from perception.layout import BenchLayout
-from perception.sim import SimulatedCamera
 from planner.feasibility.scene import PartBox
 from planner.plan import Plan, PlanNode
 from planner.vocabulary import (
@@ -42,6 +41,9 @@ from planner.vocabulary import (
     parse_action,
     parse_fluent,
 )
+
+if TYPE_CHECKING:  # the camera's owner creates it; importing pybullet is its cost
+    from perception.sim import SimulatedCamera
 
 Vec3 = tuple[float, float, float]
 
@@ -223,15 +225,29 @@ class SimulatedHuman:
         self.did: dict[str, str] = {}
         self.acts: list[HumanAct] = []
         self._intended: dict[str, str] = {}  # node -> label decided at an earlier node
+        self._wanted: str | None = None  # the outcome clicked for the node being acted
 
     def _pick(self, choices: Sequence[str]) -> str:
+        # A clicked outcome is taken whenever the world allows it; else a seeded choice.
+        if self._wanted is not None and self._wanted in choices:
+            return self._wanted
         return self._rng.choice(list(choices))
 
-    def act(self, node_id: str, node: PlanNode, options: Sequence[str]) -> str | None:
-        """Does what the human does at a sensing node; None at any other node."""
+    def act(
+        self, node_id: str, node: PlanNode, options: Sequence[str], wanted: str | None = None
+    ) -> str | None:
+        """Does what the human does at a sensing node; None at any other node.
+
+        `wanted` (a click in the dashboard) says which outcome the human acts out;
+        when the world does not allow it (hands already full), it does what it can.
+        """
         if node_id in self.did:
             return self.did[node_id]  # asked again (a retry): it already happened
-        label = self._decide(node_id, node, options)
+        self._wanted = wanted
+        try:
+            label = self._decide(node_id, node, options)
+        finally:
+            self._wanted = None
         if label is None:
             return None
         self.did[node_id] = label
@@ -246,6 +262,8 @@ class SimulatedHuman:
                     return "yes" if "yes" in options else None
                 takeable = self._takeable(node)
                 choices = [o for o in options if o == "no" or (o == "yes" and takeable)]
+                if not choices:
+                    return None  # asked to take a part, and none can be taken
                 label = self._pick(choices)
                 if label == "yes":
                     part = self._pick(takeable)
@@ -267,7 +285,10 @@ class SimulatedHuman:
             case SenseHumanUnholding(part):
                 if part not in w.human:
                     return "yes" if "yes" in options else None
-                label = self._pick([o for o in options if o in ("yes", "no")])
+                answers = [o for o in options if o in ("yes", "no")]
+                if not answers:
+                    return None
+                label = self._pick(answers)
                 if label == "yes":
                     w.human_put_down(part)
                 return label

@@ -21,6 +21,7 @@ Data flow: frames -> detections -> sightings -> tracks -> world estimate.
   held by the human or the robot, attached to a part at a slot, or unknown; the
   human's hands; stability).
 - `pipeline`: `BenchPerception.process(frame)` runs the whole chain.
+- `annotate`: a frame with its decoded codes boxed and labelled and the bench axes.
 - `sim`: `SimulatedCamera` (a `FrameSource` rendering a `SimScene` with pybullet),
   `write_video`; `paper_bench`: the paper's base bench as layout and scene.
 - `bench`: ``python -m perception.bench`` times the chain and maps detection rates.

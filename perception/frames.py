@@ -6,6 +6,7 @@ Every failure to open or read a source is a `SourceError` with a one-line messag
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,6 +15,12 @@ from typing import Protocol, runtime_checkable
 import cv2
 import numpy as np
 import numpy.typing as npt
+
+# FFmpeg writes its own complaint about a broken file ("moov atom not found") on
+# stderr before OpenCV returns; the failure is reported once, as a SourceError. Read
+# when OpenCV first opens a file, so set before that; the user's settings win.
+os.environ.setdefault("OPENCV_FFMPEG_DEBUG", "1")
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
 
 Image = npt.NDArray[np.uint8]  # H x W x 3, BGR
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
@@ -88,7 +95,14 @@ class _CaptureSource:
 
 class WebcamSource(_CaptureSource):
     def __init__(self, device: int | str = 0, size: tuple[int, int] | None = None) -> None:
-        capture = cv2.VideoCapture(device)
+        # OpenCV logs every backend it tried on stderr; a missing camera is reported
+        # once, as a SourceError.
+        level = cv2.utils.logging.getLogLevel()
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+        try:
+            capture = cv2.VideoCapture(device)
+        finally:
+            cv2.utils.logging.setLogLevel(level)
         if size is not None and capture.isOpened():
             capture.set(cv2.CAP_PROP_FRAME_WIDTH, size[0])
             capture.set(cv2.CAP_PROP_FRAME_HEIGHT, size[1])

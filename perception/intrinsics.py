@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -109,29 +109,28 @@ def find_chessboard(image: Image, inner_corners: tuple[int, int]) -> npt.NDArray
     return np.asarray(refined, dtype=np.float32)
 
 
-def calibrate_chessboard(
-    images: Iterable[Image], inner_corners: tuple[int, int], square_m: float, min_views: int = 5
-) -> tuple[CameraIntrinsics, float]:
-    """Intrinsics from views of a chessboard with `inner_corners` (columns, rows) of
-    squares `square_m` wide, and the RMS reprojection error in pixels."""
+def board_points(inner_corners: tuple[int, int], square_m: float) -> npt.NDArray[np.float32]:
+    """The board's inner corners in its own plane (metres), in OpenCV's order."""
     cols, rows = inner_corners
     board = np.zeros((rows * cols, 3), np.float32)
     board[:, :2] = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2) * square_m
-    object_points: list[npt.NDArray[np.float32]] = []
-    image_points: list[npt.NDArray[np.float32]] = []
-    size: tuple[int, int] | None = None
-    for image in images:
-        size = (image.shape[1], image.shape[0])
-        corners = find_chessboard(image, inner_corners)
-        if corners is not None:
-            object_points.append(board)
-            image_points.append(corners)
-    if size is None or len(image_points) < min_views:
-        raise CalibrationError(
-            f"chessboard found in {len(image_points)} views, {min_views} needed"
-        )
+    return board
+
+
+def calibrate_views(
+    views: Sequence[npt.NDArray[np.float32]],
+    size: tuple[int, int],
+    inner_corners: tuple[int, int],
+    square_m: float,
+    min_views: int = 5,
+) -> tuple[CameraIntrinsics, float]:
+    """Intrinsics from the board corners found in `views` of `size` (width, height)
+    pixels, and the RMS reprojection error in pixels."""
+    if len(views) < min_views:
+        raise CalibrationError(f"chessboard found in {len(views)} views, {min_views} needed")
+    board = board_points(inner_corners, square_m)
     rms, matrix, dist, _, _ = cv2.calibrateCamera(
-        object_points, image_points, size, np.eye(3), np.zeros(5)
+        [board] * len(views), list(views), size, np.eye(3), np.zeros(5)
     )
     m = np.asarray(matrix)
     intrinsics = CameraIntrinsics(
@@ -144,3 +143,20 @@ def calibrate_chessboard(
         tuple(float(v) for v in np.asarray(dist).ravel()),
     )
     return intrinsics, float(rms)
+
+
+def calibrate_chessboard(
+    images: Iterable[Image], inner_corners: tuple[int, int], square_m: float, min_views: int = 5
+) -> tuple[CameraIntrinsics, float]:
+    """Intrinsics from views of a chessboard with `inner_corners` (columns, rows) of
+    squares `square_m` wide, and the RMS reprojection error in pixels."""
+    views: list[npt.NDArray[np.float32]] = []
+    size: tuple[int, int] | None = None
+    for image in images:
+        size = (image.shape[1], image.shape[0])
+        corners = find_chessboard(image, inner_corners)
+        if corners is not None:
+            views.append(corners)
+    if size is None:
+        raise CalibrationError(f"no images: chessboard found in 0 views, {min_views} needed")
+    return calibrate_views(views, size, inner_corners, square_m, min_views)

@@ -6,7 +6,7 @@ is printed under it. Reference codes say where on the bench they belong.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from PIL import Image as PILImage
@@ -45,12 +45,21 @@ def render_marker_sheet(
     marker_size_m: float = DEFAULT_MARKER_SIZE_M,
     path: str | Path = "markers.pdf",
     dpi: int = DEFAULT_DPI,
+    notes: Mapping[str, str] | None = None,
 ) -> list[Path]:
     """Draw every part code and reference code on A4 pages; returns the files written
-    (a PDF holds all pages; PNG pages after the first are `<name>-2.png`, ...)."""
+    (a PDF holds all pages; PNG pages after the first are `<name>-2.png`, ...).
+    `notes` adds words to a part's label (where on the part the code goes)."""
     path = Path(path)
-    items = [(encode_part(c.part_id, c.marker_id), f"{c.part_id}  (marker {c.marker_id})")
-             for c in labels]
+    notes = notes or {}
+    items = [
+        (
+            encode_part(c.part_id, c.marker_id),
+            f"{c.part_id}  (marker {c.marker_id})"
+            + (f": {notes[c.part_id]}" if c.part_id in notes else ""),
+        )
+        for c in labels
+    ]
     items += [
         (encode_reference(r.name), f"ref {r.name} at x={r.x:.3f} y={r.y:.3f} m")
         for r in reference_markers

@@ -15,6 +15,7 @@ from pydantic import Field, PrivateAttr, model_validator
 
 from planner import scenario_rules
 from planner.scenario_sections import (
+    Camera,
     Feasibility,
     Goal,
     Human,
@@ -26,7 +27,9 @@ from planner.scenario_sections import (
     StrictModel,
 )
 
-__all__ = ["Feasibility", "Goal", "Human", "Part", "Preferences", "Region", "Robot", "Scenario"]
+__all__ = [
+    "Camera", "Feasibility", "Goal", "Human", "Part", "Preferences", "Region", "Robot", "Scenario",
+]
 
 
 class Scenario(StrictModel):
@@ -37,6 +40,7 @@ class Scenario(StrictModel):
     robot: Robot = Robot()
     human: Human = Human()
     feasibility: Feasibility = Feasibility()
+    camera: Camera = Camera()
     parts: Annotated[list[Part], Field(min_length=1)]
     goal: Goal
 

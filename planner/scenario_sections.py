@@ -59,6 +59,9 @@ DEFAULT_REGION_X: dict[str, tuple[float, float]] = {
 }
 # How many times the human may pick a part up unasked in one execution.
 DEFAULT_INITIATIVE = 1
+# Printed side of a QR code, quiet zone excluded: 10 cm codes decode from the
+# default camera 1.45 m over the bench (perception.bench maps the rest).
+DEFAULT_MARKER_SIZE_M = 0.10
 
 
 class StrictModel(BaseModel):
@@ -87,6 +90,12 @@ class Robot(StrictModel):
 class Human(StrictModel):
     name: str = "teammate"
     initiative: int = Field(default=DEFAULT_INITIATIVE, ge=0, le=3)
+
+
+class Camera(StrictModel):
+    # Metres; bounded so a code (with its quiet zone and label) fits an A4 sheet
+    # and stays large enough to print its modules sharply.
+    marker_size: float = Field(default=DEFAULT_MARKER_SIZE_M, ge=0.02, le=0.16)
 
 
 class Feasibility(StrictModel):

@@ -196,9 +196,23 @@ def test_tandem_execute_with_the_simulated_camera(tmp_path: Path) -> None:
     assert done.stdout.strip().splitlines()[-1].split()[2] == "goal"
     with SessionStore(tmp_path) as store:
         (session,) = store.list_sessions()
-        events = store.events(session.id)
+        events = store.events(session.id, with_jpeg=True)
     sensing = [e for e in events if e.kind == "sensing"]
     assert sensing and all(e.source == "camera" for e in sensing)
+    for e in sensing:
+        # The deciding frame, what the camera read, and what the human really did.
+        assert e.evidence is not None and e.evidence.jpeg is not None
+        image = cv2.imdecode(np.frombuffer(e.evidence.jpeg, np.uint8), cv2.IMREAD_COLOR)
+        assert image is not None and image.shape[1] == 320
+        camera = e.evidence.detail["camera"]
+        assert camera["label"] == e.outcome and camera["frames"] >= 1 and camera["reason"]
+        assert e.evidence.detail["truth"] == e.outcome, e
+    assert all(e.evidence is None for e in events if e.source != "camera")
+    shown = tandem("sessions", "show", str(session.id), env=env)
+    assert shown.returncode == 0, shown.stderr
+    assert f"agree with the simulated human: {len(sensing)}/{len(sensing)}" in shown.stdout
+    assert shown.stdout.count("(camera)") == len(sensing)
+    assert shown.stdout.count(": agrees") == len(sensing)
     # No camera there: exit 2, the reason on the last line.
     done = tandem("execute", "default.toml", "--responses", "camera:webcam:63", env=env)
     assert done.returncode == 2

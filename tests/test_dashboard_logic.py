@@ -7,10 +7,10 @@ from typing import Any
 
 import pytest
 
+from app.bench_world import place_parts, world_at
 from app.dashboard import scenario_edit
 from app.dashboard.scenario_folders import RefusedName, ScenarioFolders
 from app.dashboard.tree_layout import SpanningTree, layout
-from app.dashboard.world import place_parts, world_at
 from planner.feasibility.robot import HOME
 from planner.feasibility.scene import part_boxes
 from planner.plan import Plan

@@ -16,9 +16,9 @@ def _loaded_after(module: str) -> set[str]:
     return set(done.stdout.split())
 
 
-def test_the_dashboards_world_model_loads_no_physics() -> None:
+def test_the_world_model_loads_no_physics() -> None:
     # The world at a node is pure geometry: opening it must not start pybullet or OMPL.
-    loaded = _loaded_after("app.dashboard.world")
+    loaded = _loaded_after("app.bench_world")
     assert "pybullet" not in loaded and "ompl" not in loaded
 
 

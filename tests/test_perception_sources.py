@@ -12,9 +12,9 @@ import pytest
 
 from perception.frames import ImageFolderSource, SourceError, VideoFileSource, open_source
 from perception.intrinsics import CameraIntrinsics, calibrate_chessboard
+from tests.chessboard_frames import board_image, board_view
 
 INNER = (8, 6)  # inner corners (columns, rows)
-SQUARE_PX = 40  # squares on the drawn board
 SQUARE_M = 0.03
 
 
@@ -70,36 +70,16 @@ def test_intrinsics_json_round_trip_and_default(tmp_path: Path) -> None:
     assert CameraIntrinsics.load(tmp_path / "camera.json") == default
 
 
-def _board() -> np.ndarray:
-    cols, rows = INNER[0] + 1, INNER[1] + 1
-    board = np.full(((rows + 2) * SQUARE_PX, (cols + 2) * SQUARE_PX), 255, np.uint8)
-    for r in range(rows):
-        for c in range(cols):
-            if (r + c) % 2 == 0:
-                y, x = (r + 1) * SQUARE_PX, (c + 1) * SQUARE_PX
-                board[y : y + SQUARE_PX, x : x + SQUARE_PX] = 0
-    return board
-
-
-def _view(board: np.ndarray, k: np.ndarray, rvec: np.ndarray, tvec: np.ndarray) -> np.ndarray:
-    """The board seen by a pinhole camera `k` at pose (rvec, tvec): a homography."""
-    r, _ = cv2.Rodrigues(rvec)
-    metres_per_px = SQUARE_M / SQUARE_PX
-    h = k @ np.column_stack([r[:, 0], r[:, 1], tvec]) @ np.diag([metres_per_px, metres_per_px, 1])
-    image = cv2.warpPerspective(board, h, (640, 480), flags=cv2.INTER_AREA, borderValue=180)
-    return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
-
-
 def test_calibration_recovers_focal_length() -> None:
     truth = CameraIntrinsics(560.0, 560.0, 322.0, 236.0, 640, 480)
     rng = np.random.default_rng(4)
-    board = _board()
+    board = board_image(INNER)
     views = []
     for _ in range(10):
         rvec = rng.normal(0, 0.35, 3)
         x, y = rng.uniform(-0.18, -0.08), rng.uniform(-0.14, -0.06)
         tvec = np.array([x, y, rng.uniform(0.45, 0.6)])
-        views.append(_view(board, truth.matrix, rvec, tvec))
+        views.append(board_view(board, truth.matrix, rvec, tvec, SQUARE_M))
     found, rms = calibrate_chessboard(views, INNER, SQUARE_M)
     assert rms < 1.0
     assert found.fx == pytest.approx(truth.fx, rel=0.03)

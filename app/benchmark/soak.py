@@ -100,7 +100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 time.sleep(0.1)
             execute.click()
             executions += 1
-            print(f"execution {executions} on page {executions % len(pages)}", file=sys.stderr, flush=True)
+            print(f"\rexecution {executions}", end="", file=sys.stderr, flush=True)
             # The log's last line names the session (ids count the executions).
             finished = operator.get_by_text(f"Session {executions}: ", exact=False)
             stuck = time.monotonic() + 300
@@ -133,7 +133,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         sessions = store.list_sessions()
     shutil.rmtree(data, ignore_errors=True)
     first = rss_first if rss_first is not None else rss_end
-    rows = [
+    rows: list[tuple[str, ...]] = [
         ("run", f"{args.pages} pages", f"{(time.monotonic() - t0) / 60:.1f} min", ""),
         ("executions / sessions stored", "", f"{executions} / {len(sessions)}",
          f"{sum(s.result == 'goal' for s in sessions)} at the goal"),

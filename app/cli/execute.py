@@ -9,6 +9,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
 from app.execution import ExecutionEvent, Executor
@@ -27,6 +28,9 @@ from planner.resources import find_scenario
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
 
+if TYPE_CHECKING:  # OpenCV is loaded only for camera runs
+    from perception.intrinsics import CameraIntrinsics
+
 
 def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", metavar="SCENARIO|PLAN.json", help="a scenario or a plan file")
@@ -44,6 +48,10 @@ def register(parser: argparse.ArgumentParser) -> None:
         help="with camera:sim, how the simulated human acts (random, seeded by --seed)",
     )
     parser.add_argument("--seed", type=int, help="seed for --responses random or camera:sim")
+    parser.add_argument(
+        "--calibration", metavar="FILE",
+        help="with a real camera: intrinsics from `tandem camera calibrate` (default: 60 deg)",
+    )  # fmt: skip
     parser.add_argument("--data-dir", help="session store folder (default: $TANDEM_DATA_DIR, ...)")
     parser.add_argument(
         "--step-delay", type=float, default=0.0, help="seconds between steps (default 0)"
@@ -94,6 +102,19 @@ def _camera_fallback(plan: Plan) -> Callable[[str, str], None]:
     return warn
 
 
+def _calibration(args: argparse.Namespace) -> CameraIntrinsics | None:
+    if args.calibration is None:
+        return None
+    if not args.responses.startswith("camera:"):
+        raise BadInput("--calibration goes with --responses camera:SOURCE")
+    from app.camera_input import CalibrationFileError, load_calibration
+
+    try:
+        return load_calibration(args.calibration)
+    except CalibrationFileError as err:
+        raise BadInput(f"--calibration {err}") from err
+
+
 def _print_event(event: ExecutionEvent) -> None:
     line = f"{event.seq:3d} {event.node:>5} {event.action or 'goal'}"
     if event.outcome is not None:
@@ -109,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
     seeded = args.responses in ("random", "camera:sim")
     if args.seed is not None and not seeded:
         raise BadInput("--seed goes with --responses random or camera:sim")
+    calibration = _calibration(args)  # before planning: a bad file is said at once
     plan, scenario = load_plan(args.input)
     seed = args.seed
     if seeded and seed is None:
@@ -124,7 +146,9 @@ def run(args: argparse.Namespace) -> int:
         from perception.frames import SourceError
 
         try:
-            camera = camera_responses(args.responses[len("camera:") :], scenario, plan, seed)
+            camera = camera_responses(
+                args.responses[len("camera:") :], scenario, plan, seed, calibration
+            )
         except SourceError as err:
             raise BadInput(f"--responses {args.responses}: {err}") from err
         listeners = camera.listeners

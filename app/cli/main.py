@@ -17,7 +17,19 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
-from app.cli import benchmark, check, dashboard, execute, feasibility, plan, scenario, sessions
+from app.cli import (
+    benchmark,
+    camera,
+    check,
+    dashboard,
+    execute,
+    feasibility,
+    markers,
+    plan,
+    scenario,
+    sessions,
+    track,
+)
 from app.cli.exit_codes import BAD_INPUT, HANDLED, exit_code, message
 
 Register = Callable[[argparse.ArgumentParser], None]
@@ -31,6 +43,9 @@ SUBCOMMANDS: list[tuple[str, str, Register]] = [
     ("dashboard", "the browser dashboard: bench, planning, plan tree", dashboard.register),
     ("execute", "run a plan, one branch", execute.register),
     ("sessions", "stored executions", sessions.register),
+    ("markers", "the printable QR codes of a scenario's parts and bench", markers.register),
+    ("camera", "camera set-up: calibrate", camera.register),
+    ("track", "what the camera sees: each part's placement as it changes", track.register),
 ]
 
 

@@ -13,7 +13,7 @@ import viser
 import yourdfpy
 from viser.extras import ViserUrdf
 
-from app.dashboard.world import WorldView
+from app.bench_world import WorldView
 from planner.feasibility.arms import ARMS, HOME, JOINT_SUFFIXES
 from planner.feasibility.robot import baxter_urdf, human_urdf
 from planner.feasibility.scene import (

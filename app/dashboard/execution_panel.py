@@ -18,14 +18,16 @@ import viser
 
 from app.dashboard.operator import Operator, refuse
 from app.dashboard.stage import (
+    CameraAnswers,
+    CameraChanged,
     Events,
     ExecutionFinished,
     ExecutionStarted,
     PlanChanged,
     Stage,
 )
-from app.execution import ExecutionEvent, Executor
-from app.outcomes import ClickSource, Offer
+from app.execution import ExecutionEvent, Executor, Listener
+from app.outcomes import ClickSource, FallbackSource, Offer, OutcomeSource
 from app.store import SessionStore, StoreError
 from planner.plan import Motion
 
@@ -52,6 +54,7 @@ class ExecutionPanel:
         self.executor: Executor | None = None
         self.clicks: ClickSource | None = None
         self.session_id: int | None = None
+        self.camera: CameraAnswers | None = None  # when set, it answers sensing nodes
         self._answer_buttons: list[Any] = []
         self._log: list[str] = []
         self._lock = threading.Lock()  # the answer buttons: executor and GUI threads
@@ -76,6 +79,10 @@ class ExecutionPanel:
                 self.question = gui.add_markdown("No question yet.")
             self.log = gui.add_markdown("")
         events.subscribe(PlanChanged, self._plan_changed)
+        events.subscribe(CameraChanged, self._camera_changed)
+
+    def _camera_changed(self, message: CameraChanged) -> None:
+        self.camera = message.camera  # taken by the next execution
 
     def _plan_changed(self, message: PlanChanged) -> None:
         ready = message.plan is not None and not message.plan.partial
@@ -96,21 +103,31 @@ class ExecutionPanel:
         plan = self.stage.current_plan()
         if plan is None or plan.partial or self.running or self.refusal:
             return
+        clicks = ClickSource(timeout=None, on_offer=self._offered)  # a person answers
+        source: OutcomeSource = clicks
+        listeners: list[Listener] = []
+        note = "dashboard"
+        if self.camera is not None:
+            # The camera answers sensing nodes; a click says what the simulated human
+            # does (the camera then sees it), and answers what the camera cannot.
+            camera, listeners = self.camera.for_execution(plan, clicks)
+            source = FallbackSource(camera, clicks)
+            note = f"dashboard, camera {self.camera.name}"
         try:
             # Refuse rather than run unrecorded: the session row is written first.
-            session_id = self.store.start(plan, note="dashboard")
+            session_id = self.store.start(plan, note=note)
         except StoreError as err:
             self.refuse_executions(str(err))
             refuse(client, str(err))
             return
         self.session_id = session_id
         self.operator.take(client_id)
-        self.clicks = ClickSource(timeout=None, on_offer=self._offered)  # a person answers
+        self.clicks = clicks
         self._log = []
         self.executor = Executor(
             plan,
-            self.clicks,
-            [self.store.recorder(self.session_id), self._on_event],
+            source,
+            [self.store.recorder(self.session_id), self._on_event, *listeners],
             step_delay=float(self.speed.value),
         )
         self.start_button.disabled = True
@@ -161,6 +178,8 @@ class ExecutionPanel:
             self._play(event.motion, float(self.speed.value))
             self.stage.show_world(event.node)
         words = event.text or event.action or ""
+        if event.source == "camera":
+            words += f" — **answered by the camera** ({event.confidence})"
         self._log.append(f"`{event.node}` {event.action or 'goal'}: {words}")
         self.log.content = "\n\n".join(self._log[-LOG_LINES:])
 

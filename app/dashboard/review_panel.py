@@ -12,10 +12,12 @@ import time
 from datetime import date
 from typing import Any
 
+import cv2
+import numpy as np
 import viser
 
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
-from app.execution import RESULTS
+from app.execution import RESULTS, ExecutionEvent
 from app.store import SessionRecord, SessionStore, StoreError, UnknownSession, iso
 from planner.plan import PlanFormatError
 
@@ -54,6 +56,10 @@ class ReviewPanel:
             export = gui.add_button("Export JSON")
             export.on_click(lambda event: self._export(event.client))
             self.summary = gui.add_markdown("")
+            # The frame that decided a camera answer, beside its event.
+            self.frame_caption = gui.add_markdown("")
+            self.frame: Any = gui.add_image(np.zeros((240, 320, 3), np.uint8), format="jpeg",
+                                            visible=False)  # fmt: skip
         self.executing = False
         self.refresh()
         events.subscribe(ExecutionStarted, lambda _: self._set_executing(True))
@@ -134,6 +140,32 @@ class ReviewPanel:
         self.summary.content = "\n\n".join(
             [f"Session #{s.id} ({s.scenario}, {s.result}), step {k + 1}/{len(self.events)}"]
             + spoken[-8:]
+        )
+        self._show_frame(s.id, event)
+
+    def _show_frame(self, session_id: int, event: ExecutionEvent) -> None:
+        evidence = event.evidence
+        picture = None if evidence is None else self.store.evidence_jpeg(session_id, event.seq)
+        image = None
+        if picture is not None:
+            image = cv2.imdecode(np.frombuffer(picture, np.uint8), cv2.IMREAD_COLOR)
+        if image is None or evidence is None:
+            self.frame.visible = False
+            self.frame_caption.content = ""
+            return
+        self.frame.image = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+        self.frame.visible = True
+        truth = evidence.detail.get("truth")
+        agrees = (
+            ""
+            if truth is None
+            else (
+                f"; the simulated human did **{truth}**"
+                + (" (agrees)" if truth == event.outcome else " (**disagrees**)")
+            )
+        )
+        self.frame_caption.content = (
+            f"`{event.node}` answered by the {event.source}: **{event.outcome}**{agrees}"
         )
 
     def _replay(self) -> None:

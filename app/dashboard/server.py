@@ -15,8 +15,10 @@ from typing import Any
 
 import viser
 
+from app.bench_world import world_at
 from app.dashboard import scenario_edit
 from app.dashboard.bench_scene import BenchScene
+from app.dashboard.camera_panel import CameraPanel
 from app.dashboard.execution_panel import ExecutionPanel
 from app.dashboard.node_details import details_markdown, stats_html
 from app.dashboard.operator import Operator
@@ -25,9 +27,9 @@ from app.dashboard.review_panel import ReviewPanel
 from app.dashboard.scenario_folders import USER_FOLDER, RefusedName, ScenarioFolders
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, PlanChanged
 from app.dashboard.tree_view import WALL_X, TreeView
-from app.dashboard.world import world_at
 from app.store import SessionStore, StoreError, default_data_dir
 from planner.plan import Plan, PlanNode
+from planner.scenario_model import Scenario
 
 LIVE_REDRAW_S = 0.5  # at most two redraws of the growing tree per second
 CAMERAS = {
@@ -87,6 +89,7 @@ class Dashboard:
         self.review = ReviewPanel(gui, self, self.events, self.store)
         self.events.subscribe(ExecutionStarted, lambda _: self._lock_scenario(True))
         self.events.subscribe(ExecutionFinished, lambda _: self._lock_scenario(False))
+        self.camera_panel = CameraPanel(gui, self, self.events)
         self.bench = BenchScene(self.server, load_models=load_models)
         self.tree = TreeView(self.server, self.select)
         self.current_arms: dict[str, list[float]] = {}
@@ -301,6 +304,9 @@ class Dashboard:
     def current_plan(self) -> Plan | None:
         return self.plan
 
+    def current_scenario(self) -> Scenario | None:
+        return self.loaded.scenario if self.loaded is not None else None
+
     def show_plan(self, plan: Plan) -> None:
         """A complete plan (planned here or stored with a session) in the tree and panels."""
         with self._lock:
@@ -386,7 +392,8 @@ class Dashboard:
         if self.job is not None:
             self.job.cancel()
         self.execution.close(reason)
-        self.review.close()
+        for panel in (self.review, self.camera_panel):
+            panel.close()
         self.events.clear()
         self.server.stop()
         self.store.close()

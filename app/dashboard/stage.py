@@ -1,13 +1,14 @@
 """How the dashboard's panels are composed: a narrow stage and typed events.
 
-The pattern, for every panel (execution, review, and the camera and speech
-panels to come):
+The pattern, for every panel (execution, review, live camera, and the speech
+panel to come):
 
 - The `Dashboard` (server.py) owns the viser server, the bench scene and the
   plan tree. A panel receives the GUI API to build its controls in, the
   `Stage` it may drive, and the `Events` bus; never the dashboard itself.
 - `Stage` is all a panel may do to what is on screen: show a plan, go to a
-  node, show the world at a node, move the arms, read the current plan.
+  node, show the world at a node, move the arms, read the current plan and
+  scenario.
 - Panels tell each other what happened only through `Events`: typed,
   documented messages (as viser's own messages are), delivered synchronously
   to the subscribers in the order they subscribed. No panel changes another
@@ -22,7 +23,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
+from app.execution import ExecutionEvent
+from app.outcomes import OutcomeSource
 from planner.plan import Plan
+from planner.scenario_model import Scenario
 
 
 class Stage(Protocol):
@@ -30,6 +34,10 @@ class Stage(Protocol):
 
     def current_plan(self) -> Plan | None:
         """The plan on screen, complete or still being built (`plan.partial`)."""
+        ...
+
+    def current_scenario(self) -> Scenario | None:
+        """The scenario loaded now (the last good one)."""
         ...
 
     def show_plan(self, plan: Plan) -> None:
@@ -78,8 +86,29 @@ class ExecutionFinished:
     result: str
 
 
-Message = PlanChanged | ExecutionStarted | ExecutionFinished
-M = TypeVar("M", PlanChanged, ExecutionStarted, ExecutionFinished)
+class CameraAnswers(Protocol):
+    """A camera that can answer an execution's sensing nodes."""
+
+    name: str
+
+    def for_execution(
+        self, plan: Plan, intent: OutcomeSource
+    ) -> tuple[OutcomeSource, list[Callable[[ExecutionEvent], None]]]:
+        """The answers for one run of `plan` and the listeners to add; `intent` is
+        where a simulated human learns what to do (the clicks)."""
+        ...
+
+
+@dataclass(frozen=True)
+class CameraChanged:
+    """A camera started (`camera`: it answers sensing nodes from now on) or stopped
+    or is missing (None: clicks answer)."""
+
+    camera: CameraAnswers | None
+
+
+Message = PlanChanged | ExecutionStarted | ExecutionFinished | CameraChanged
+M = TypeVar("M", PlanChanged, ExecutionStarted, ExecutionFinished, CameraChanged)
 
 
 class Events:

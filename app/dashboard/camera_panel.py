@@ -1,0 +1,150 @@
+"""The Live camera panel: pick a source, watch what perception makes of it, let it answer.
+
+A source (the simulated camera, a webcam, a video file or an image folder) runs
+in a `LiveCamera`; the panel shows its latest frame with each decoded code boxed
+and labelled and the bench axes drawn, the frame rate and perception's time per
+frame, and per part what the tracker believes. While a camera runs it is
+announced on `Events` (`CameraChanged`), so executions take their sensing
+answers from it; a camera that cannot be opened is said in one line and the
+clicks keep answering. See stage.py for the panel pattern.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import cv2
+import numpy as np
+import viser
+
+from app.camera_input import open_camera
+from app.camera_source import where_words
+from app.dashboard.stage import CameraChanged, Events, PlanChanged, Stage
+from app.live_camera import LiveCamera, LiveView
+from app.simulated_human import StillSimulatedCamera
+from perception.annotate import annotate
+from perception.frames import SourceError
+
+SOURCES = ("simulated", "webcam", "video file", "image folder")
+VIEW_WIDTH = 480  # px sent to the page: enough to read the labels, ~30 kB a frame
+SHOW_EVERY_S = 0.2  # the page's view refreshes five times a second at most
+
+
+def source_spec(kind: str, where: str) -> str:
+    """The SOURCE spec of app.camera_input for a choice in the panel."""
+    if kind == "simulated":
+        return "sim"
+    if kind == "webcam":
+        return f"webcam:{where.strip() or '0'}"
+    return where.strip()
+
+
+class CameraPanel:
+    def __init__(self, gui: viser.GuiApi, stage: Stage, events: Events) -> None:
+        self.stage = stage
+        self.events = events
+        self.live: LiveCamera | None = None
+        self.last_annotated: np.ndarray | None = None
+        self._shown_at = 0.0
+        self._lock = threading.Lock()
+        with gui.add_folder("Live camera", expand_by_default=False):
+            self.kind: Any = gui.add_dropdown("Source", SOURCES, initial_value="simulated")
+            self.where: Any = gui.add_text("Webcam index or path", "0")
+            # Start again to switch sources: it stops the running one first.
+            self.start_button = gui.add_button("Start camera")
+            self.start_button.on_click(lambda _: self.start())
+            self.stop_button = gui.add_button("Stop camera", disabled=True)
+            self.stop_button.on_click(lambda _: self.stop("Camera stopped: clicks answer."))
+            self.status = gui.add_markdown("No camera: clicks answer.")
+            self.view = gui.add_image(
+                np.zeros((VIEW_WIDTH * 3 // 4, VIEW_WIDTH, 3), np.uint8), format="jpeg",
+                jpeg_quality=80, visible=False,
+            )  # fmt: skip
+            self.rate = gui.add_markdown("")
+            self.beliefs = gui.add_markdown("")
+        events.subscribe(PlanChanged, self._plan_changed)
+
+    def _plan_changed(self, message: PlanChanged) -> None:
+        # A new scenario has other parts and another bench: the running camera's
+        # layout no longer fits it.
+        if message.plan is None and self.live is not None:
+            self.stop("Scenario changed: start the camera again.")
+
+    def start(self) -> None:
+        scenario = self.stage.current_scenario()
+        if scenario is None:
+            self.status.content = "No scenario loaded."
+            return
+        self.stop(None)
+        spec = source_spec(str(self.kind.value), str(self.where.value))
+        try:
+            camera = open_camera(spec, scenario)
+        except SourceError as err:
+            self.status.content = f"**Camera missing:** {err}; clicks answer."
+            self.events.publish(CameraChanged(None))
+            return
+        simulated = camera.frames if isinstance(camera.frames, StillSimulatedCamera) else None
+        live = LiveCamera(
+            camera.frames, camera.intrinsics, scenario, name=spec, simulated=simulated,
+            pace_fps=None if spec.startswith("webcam") else 30.0, on_view=self._viewed,
+        )  # fmt: skip
+        with self._lock:
+            self.live = live
+        live.start()
+        self.stop_button.disabled = False
+        self.view.visible = True
+        self.status.content = (
+            f"Camera **{spec}** ({camera.origin} intrinsics): it answers the sensing nodes."
+        )
+        self.events.publish(CameraChanged(live))
+
+    def stop(self, why: str | None) -> None:
+        with self._lock:
+            live, self.live = self.live, None
+        if live is None:
+            return
+        live.stop()
+        self.stop_button.disabled = True
+        if why is not None:
+            self.status.content = why
+        self.events.publish(CameraChanged(None))
+
+    def _viewed(self, view: LiveView) -> None:
+        """Each view (the camera's thread); the page is refreshed a few times a second."""
+        now = time.monotonic()
+        if now - self._shown_at < SHOW_EVERY_S:
+            return
+        self._shown_at = now
+        live = self.live
+        if live is None:
+            return
+        observation, world = view.perceived.observation, view.perceived.world
+        labels = {pid: f"{pid}: {where_words(p.placement)}" for pid, p in world.parts.items()}
+        x0 = live.layout.bench_x[0]
+        annotated = annotate(
+            view.frame.image, observation.detections, observation.camera, live.intrinsics,
+            axes_origin=(x0, 0.0, live.layout.bench_top_z), labels=labels,
+        )  # fmt: skip
+        self.last_annotated = annotated
+        h, w = annotated.shape[:2]
+        small = cv2.resize(annotated, (VIEW_WIDTH, round(h * VIEW_WIDTH / w)),
+                           interpolation=cv2.INTER_AREA)  # fmt: skip
+        self.view.image = cv2.cvtColor(small, cv2.COLOR_BGR2RGB)
+        located = "located" if observation.camera_fresh else (
+            "pose kept from an earlier frame" if observation.camera else "not located"
+        )
+        self.rate.content = (
+            f"{view.fps:.0f} fps, latency {view.seconds * 1e3:.1f} ms (frame in, estimate out), "
+            f"{len(observation.detections)} codes; camera {located}"
+        )
+        self.beliefs.content = "\n\n".join(
+            f"`{pid}` {where_words(p.placement)} ({p.confidence:.2f})"
+            for pid, p in world.parts.items()
+        ) + ("" if world.stable else "\n\n*(settling)*")
+        if live.ended is not None:
+            self.status.content = f"Camera **{live.name}**: {live.ended}."
+
+    def close(self) -> None:
+        self.stop(None)

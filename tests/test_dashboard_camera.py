@@ -1,0 +1,166 @@
+"""The Live camera panel in a real browser (Debian's chromium driven by playwright):
+the annotated frame of the simulated camera, an execution whose sensing nodes the
+camera answers after each click has moved the simulated human, the deciding frame
+in the review, and a missing camera said in one line while clicks answer."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+pytest.importorskip("playwright.sync_api")
+from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
+
+from app.dashboard.camera_panel import VIEW_WIDTH  # noqa: E402
+from app.dashboard.server import Dashboard  # noqa: E402
+from perception.annotate import PART_COLOUR, REFERENCE_COLOUR  # noqa: E402
+from tests.test_dashboard import ARTIFACTS, CHROMIUM, free_port, plan_shown, shot, wait_for  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Browser]:
+    if not Path(CHROMIUM).exists():
+        pytest.fail("chromium is missing: `make test` installs it (apt-get install chromium)")
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
+    # No robot meshes: the camera panel does not need them, and they cost seconds.
+    d = Dashboard(
+        "127.0.0.1", free_port(), "default.toml", workers=1,
+        cache_dir=str(tmp_path_factory.mktemp("cache")),
+        data_dir=str(tmp_path_factory.mktemp("data")), load_models=False,
+    )  # fmt: skip
+    yield d
+    d.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
+    page = browser.new_page(viewport={"width": 1400, "height": 1000})
+    page.goto(f"http://127.0.0.1:{dashboard.server.get_port()}")
+    wait_for(lambda: dashboard.server.get_clients())
+    page.get_by_text("Tandem", exact=False).first.wait_for()
+    yield page
+    page.close()
+
+
+def image_widths(page: Page) -> list[int]:
+    widths: list[int] = page.evaluate("Array.from(document.images).map(i => i.naturalWidth)")
+    return widths
+
+
+def colour_pixels(image: np.ndarray, bgr: tuple[int, int, int]) -> int:
+    return int(np.all(np.abs(image.astype(int) - np.array(bgr)) <= 30, axis=2).sum())
+
+
+def test_the_panel_shows_the_annotated_frame(page: Page, dashboard: Dashboard) -> None:
+    page.get_by_text("Live camera", exact=True).click()
+    page.get_by_role("button", name="Start camera", exact=True).click()
+    page.get_by_text("it answers the sensing nodes", exact=False).wait_for()
+    panel = dashboard.camera_panel
+    wait_for(lambda: panel.last_annotated is not None, 30)
+    # The page shows the frame: an image as wide as the panel sends it.
+    wait_for(lambda: VIEW_WIDTH in image_widths(page), 30)
+    page.get_by_text("on the bench in humanOnly", exact=False).first.wait_for()
+    page.get_by_text("codes; camera located", exact=False).wait_for()
+    page.locator("img").last.scroll_into_view_if_needed()
+    time.sleep(0.5)
+    shot(page, "camera-panel")
+    live = panel.live
+    assert live is not None
+    view = live.latest()
+    assert view is not None and len(view.perceived.observation.detections) == 9
+    # Boxes around the five part codes and the four references are drawn on it.
+    annotated = panel.last_annotated
+    assert annotated is not None
+    cv2.imwrite(str(ARTIFACTS / "camera-annotated.png"), annotated)
+    assert colour_pixels(annotated, PART_COLOUR) > 2000
+    assert colour_pixels(annotated, REFERENCE_COLOUR) > 1000
+    assert colour_pixels(annotated, (0, 0, 230)) > 100  # the bench's x axis
+    assert dashboard.execution.camera is live
+
+
+def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> None:
+    page.get_by_role("button", name="Plan", exact=True).click()
+    wait_for(plan_shown(dashboard), 120)
+    dashboard.execution.speed.value = 0.0
+    wait_for(lambda: not dashboard.execution.start_button.disabled)
+    page.get_by_role("button", name="Execute plan", exact=True).click()
+    wait_for(lambda: dashboard.execution.executor is not None)
+    executor = dashboard.execution.executor
+    assert executor is not None
+    while not executor.done:
+        clicks = dashboard.execution.clicks
+        offer = clicks.pending() if clicks else None
+        if offer is None:
+            time.sleep(0.05)
+            continue
+        # A click says what the simulated human does; the camera has to see it.
+        try:
+            page.get_by_role("button", name=offer.words[0], exact=True).click(timeout=5000)
+        except Exception:
+            pass  # the buttons went while playwright looked at them: the loop looks again
+        wait_for(lambda o=offer, c=clicks: c.pending() != o or executor.done, 30)
+    assert executor.result == "goal", executor.events
+    session_id = dashboard.execution.session_id
+    assert session_id is not None
+    wait_for(lambda: dashboard.store.get(session_id).result == "goal")
+    events = dashboard.store.events(session_id, with_jpeg=True)
+    sensing = [e for e in events if e.kind == "sensing"]
+    assert sensing and all(e.source == "camera" for e in sensing), sensing
+    for e in sensing:
+        assert e.evidence is not None and e.evidence.jpeg is not None
+        assert e.evidence.detail["truth"] == e.outcome
+        # From the human's act to the answer, with frames at 30 fps.
+        assert e.evidence.detail["camera"]["seconds"] < 2.0
+    questions = [e for e in events if e.kind == "communication" and e.outcome]
+    assert all(e.source == "click" for e in questions)
+    page.get_by_text("answered by the camera", exact=False).first.wait_for()
+    # The review shows the deciding frame beside a camera answer.
+    page.get_by_text("Review sessions").click()
+    page.get_by_role("button", name="Refresh list", exact=True).click()
+    page.get_by_role("button", name="Open session", exact=True).click()
+    wait_for(lambda: dashboard.review.opened == session_id)
+    k = next(i for i, e in enumerate(dashboard.review.events) if e.source == "camera")
+    dashboard.review.show_step(k)
+    assert dashboard.review.frame.visible
+    wait_for(lambda: 320 in image_widths(page), 30)
+    page.get_by_text("answered by the camera:", exact=False).first.wait_for()
+    shot(page, "camera-review")
+
+
+def test_a_missing_camera_is_one_line_and_clicks_answer(
+    page: Page, dashboard: Dashboard
+) -> None:
+    panel = dashboard.camera_panel
+    panel.kind.value = "webcam"
+    panel.where.value = "63"
+    page.get_by_role("button", name="Start camera", exact=True).click()
+    page.get_by_text("Camera missing: no camera at 63; clicks answer.").wait_for()
+    assert panel.live is None and dashboard.execution.camera is None
+    wait_for(lambda: not dashboard.execution.start_button.disabled)
+    page.get_by_role("button", name="Execute plan", exact=True).click()
+    wait_for(lambda: dashboard.execution.executor is not None
+             and dashboard.execution.clicks is not None
+             and dashboard.execution.clicks.pending() is not None, 30)  # fmt: skip
+    clicks = dashboard.execution.clicks
+    executor = dashboard.execution.executor
+    assert clicks is not None and executor is not None
+    offer = clicks.pending()
+    assert offer is not None
+    page.get_by_role("button", name=offer.words[0], exact=True).click()
+    wait_for(lambda: any(e.outcome for e in executor.events), 30)
+    answered = next(e for e in executor.events if e.outcome)
+    assert answered.source == "click"
+    executor.abort()
+    wait_for(lambda: executor.done, 30)
