@@ -267,6 +267,9 @@ class Dashboard:
         self.plan_button.disabled = True
         self.cancel_button.disabled = False
         self.stats.content = ""
+        # Planning again drops the shown plan, so nobody executes it meanwhile.
+        self.plan = None
+        self.events.publish(PlanChanged(None))
         self.job = PlanningJob(
             self.loaded.scenario, self._job_changed, workers=self.workers, cache_dir=self.cache_dir
         )
