@@ -55,7 +55,7 @@ def main() -> None:
     print(f"\nKorean model loaded in {time.perf_counter() - started:.2f} s")
     latencies: list[float] = []
     for seed in (7, 101):
-        trials = korean_trials(per_phrase=8, seed=seed)
+        trials = korean_trials(seed=seed)
 
         def timed(recording: Recording) -> Heard:
             heard = recognizer.recognize_recording(recording)
@@ -68,6 +68,7 @@ def main() -> None:
             "non-answers rejected >= 80 %)"
         )
         print(result.table())
+        print(result.phrase_table())
     latencies.sort()
     print(
         f"\nRecognition latency after the end of speech, {len(latencies)} clips: "

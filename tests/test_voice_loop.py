@@ -115,19 +115,14 @@ def loop(
 
 def test_korean_default_scenario_reaches_the_goal_answered_by_voice(loop: LoopCounts) -> None:
     assert loop.questions == loop.voice + loop.fallbacks
-    assert loop.voice >= 0.6 * loop.questions  # measured: 27 of 33
-    # The dangerous case: a wrong answer accepted. Measured: 2 of 27 (both the
-    # no-word 싫어 heard as 좋아요, with no rival in the n-best list, so no
-    # threshold of the recogniser refuses them).
-    assert len(loop.misheard) <= 0.08 * loop.voice
+    # Measured: 36 of 36 (27 of 33 before the answer words were chosen by
+    # measurement and the onset and word-confidence rules came in).
+    assert loop.voice >= 0.85 * loop.questions
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="espeak-ng's Korean 싫어 is decoded as 좋아요 with no rival hypothesis; "
-    "the recogniser, not the loop, has to refuse it",
-)
 def test_every_voice_answer_agrees_with_the_speaker(loop: LoopCounts) -> None:
+    # The dangerous case, a wrong answer accepted: none in 20 seeds (2 of 27
+    # before, both 싫어 heard as 좋아요; 싫어 is no longer an answer word).
     assert loop.misheard == []
 
 
