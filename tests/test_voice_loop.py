@@ -1,13 +1,12 @@
 """The whole voice loop, headless: the robot asks aloud, the simulated human answers
 in Korean through espeak-ng, the real vosk model decides, the plan follows.
 
-The scenario is the default one asked in Korean. The scenario format has no
-`[human] language` field yet, so the language is the voice source's parameter.
+The scenario is the Korean copy of the default one (`[human] language = "ko"`):
+its sentences are Korean, and so are the voice and the answer words.
 """
 
 from __future__ import annotations
 
-import tomllib
 import wave
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,13 +14,14 @@ from pathlib import Path
 import pytest
 
 from app.execution import Executor
+from app.narration import plan_language
 from app.outcomes import FallbackSource, RandomSource
 from app.voice_source import SimulatedSpeaker, VoiceSource, is_question
 from planner.plan import Plan
 from speech.recognition import Recognizer
 from speech.sources import SimulatedVoice
 from speech.synthesis import synthesize
-from tests.plan_fixtures import SCENARIOS, default_plan
+from tests.plan_fixtures import default_plan, korean_plan
 
 SEEDS = range(20)
 
@@ -33,7 +33,7 @@ def recognizer() -> Recognizer:
 
 @pytest.fixture(scope="module")
 def plan() -> Plan:
-    return default_plan()
+    return korean_plan()
 
 
 @dataclass
@@ -50,8 +50,7 @@ def loop(
     recognizer: Recognizer, plan: Plan, tmp_path_factory: pytest.TempPathFactory
 ) -> LoopCounts:
     """Runs the Korean default scenario for every seed and checks each run's records."""
-    scenario = tomllib.loads((SCENARIOS / "default.toml").read_text(encoding="utf-8"))
-    assert "language" not in scenario.get("human", {})  # the language comes from the source
+    assert plan_language(plan) == "ko"
     cache = tmp_path_factory.mktemp("voice")
     counts = LoopCounts()
     for seed in SEEDS:
@@ -126,9 +125,8 @@ def test_every_voice_answer_agrees_with_the_speaker(loop: LoopCounts) -> None:
     assert loop.misheard == []
 
 
-def test_espeak_audio_for_every_communication_of_the_default_plan(
-    plan: Plan, tmp_path: Path
-) -> None:
+def test_espeak_audio_for_every_communication_of_the_default_plan(tmp_path: Path) -> None:
+    plan = default_plan()
     sentences = {n.say for n in plan.nodes.values() if n.kind == "communication" and n.say}
     assert sentences
     for text in sorted(sentences):
