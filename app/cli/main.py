@@ -17,7 +17,18 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
-from app.cli import benchmark, check, dashboard, execute, feasibility, plan, scenario, sessions
+from app.cli import (
+    benchmark,
+    check,
+    dashboard,
+    execute,
+    feasibility,
+    listen,
+    plan,
+    say,
+    scenario,
+    sessions,
+)
 from app.cli.exit_codes import BAD_INPUT, HANDLED, exit_code, message
 
 Register = Callable[[argparse.ArgumentParser], None]
@@ -31,6 +42,8 @@ SUBCOMMANDS: list[tuple[str, str, Register]] = [
     ("dashboard", "the browser dashboard: bench, planning, plan tree", dashboard.register),
     ("execute", "run a plan, one branch", execute.register),
     ("sessions", "stored executions", sessions.register),
+    ("say", "the robot's voice: speak a sentence to the speakers or a file", say.register),
+    ("listen", "hear one yes/no answer and show what was understood", listen.register),
 ]
 
 
