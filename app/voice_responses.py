@@ -21,7 +21,13 @@ from pathlib import Path
 
 from app.narration import LineListener, RobotVoice
 from app.outcomes import Evidence, Outcome, OutcomeSource, ScriptedSource
-from app.voice_source import AttemptListener, SimulatedSpeaker, VoiceSource, is_question
+from app.voice_source import (
+    AttemptListener,
+    ListeningListener,
+    SimulatedSpeaker,
+    VoiceSource,
+    is_question,
+)
 from planner.plan import PlanNode
 from speech.languages import language
 from speech.recognition import Recognizer
@@ -122,6 +128,7 @@ def voice_responses(
     cache_dir: Path | None = None,
     on_line: LineListener | None = None,
     on_attempt: AttemptListener | None = None,
+    on_listening: ListeningListener | None = None,
     on_fallback: Callable[[str, str], None] | None = None,
     recognizer: Recognizer | None = None,
 ) -> VoiceResponses:
@@ -148,5 +155,6 @@ def voice_responses(
         on_question=speaker,
         truth=speaker.truth if speaker is not None else None,
         on_attempt=on_attempt,
+        on_listening=on_listening,
     )
     return VoiceResponses(VoiceAnswers(voice, fallback, on_fallback), voice, robot, speaker)

@@ -48,6 +48,8 @@ QuestionListener = Callable[[str, PlanNode, Sequence[str]], None]
 TruthOf = Callable[[str], dict[str, object] | None]
 # Told each attempt as it is heard (the dashboard shows the last words).
 AttemptListener = Callable[["Attempt"], None]
+# Told True when listening starts and False when it ends (the listening indicator).
+ListeningListener = Callable[[bool], None]
 
 
 def is_question(node: PlanNode, options: Sequence[str]) -> bool:
@@ -116,6 +118,7 @@ class VoiceSource:
         voice: RobotVoice | None = None,
         truth: TruthOf | None = None,
         on_attempt: AttemptListener | None = None,
+        on_listening: ListeningListener | None = None,
     ) -> None:
         self.language = (
             language_code if isinstance(language_code, Language) else language(language_code)
@@ -133,6 +136,7 @@ class VoiceSource:
         self.on_question = on_question
         self.truth = truth
         self.on_attempt = on_attempt
+        self.on_listening = on_listening
         self.spoken: list[Spoken] = []
         self.attempts: dict[str, list[Attempt]] = {}
         self.last_heard: Attempt | None = None
@@ -179,7 +183,13 @@ class VoiceSource:
         return None  # refused every time: the fallback answers
 
     def _listen(self, node_id: str, number: int) -> Attempt:
-        recording = self.audio.listen(self.listen_timeout_s)
+        if self.on_listening is not None:
+            self.on_listening(True)
+        try:
+            recording = self.audio.listen(self.listen_timeout_s)
+        finally:
+            if self.on_listening is not None:
+                self.on_listening(False)
         if recording is None:
             # Nothing came within the timeout: the same refusal as a silent clip.
             return Attempt(node_id, number, (), 0.0, None, "silence")

@@ -21,6 +21,13 @@ def register(parser: argparse.ArgumentParser) -> None:
         "--data-dir",
         help="where sessions are stored (default: $TANDEM_DATA_DIR or ~/.local/share/tandem)",
     )
+    parser.add_argument(
+        "--speak",
+        choices=["page", "local"],
+        default="page",
+        help="where the robot's voice plays: in the browser page (default) or on this "
+        "machine's speakers",
+    )
     parser.set_defaults(run=run)
 
 
@@ -30,7 +37,12 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         dashboard = Dashboard(
-            args.host, args.port, args.scenario, workers=args.workers, data_dir=args.data_dir
+            args.host,
+            args.port,
+            args.scenario,
+            workers=args.workers,
+            data_dir=args.data_dir,
+            speak=args.speak,
         )
     except OSError as err:
         raise BadInput(

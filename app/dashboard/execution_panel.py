@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 import viser
@@ -23,10 +24,14 @@ from app.dashboard.stage import (
     PlanChanged,
     Stage,
 )
-from app.execution import ExecutionEvent, Executor
-from app.outcomes import ClickSource, Offer
+from app.execution import ExecutionEvent, Executor, Narrator
+from app.outcomes import ClickSource, Offer, OutcomeSource
 from app.store import SessionStore
-from planner.plan import Motion
+from planner.plan import Motion, Plan
+
+# Who answers and who speaks in an execution of a plan, given the clicks to fall
+# back on (the speech panel's `responses`); without one the clicks answer, silently.
+Responses = Callable[[Plan, ClickSource], tuple[OutcomeSource, Narrator | None]]
 
 FRAMES_PER_MOTION = 20  # arm poses shown per motion (the path is subsampled)
 LOG_LINES = 12
@@ -34,9 +39,15 @@ LOG_LINES = 12
 
 class ExecutionPanel:
     def __init__(
-        self, gui: viser.GuiApi, stage: Stage, events: Events, store: SessionStore
+        self,
+        gui: viser.GuiApi,
+        stage: Stage,
+        events: Events,
+        store: SessionStore,
+        responses: Responses | None = None,
     ) -> None:
         self.gui = gui
+        self.responses = responses
         self.stage = stage
         self.events = events
         self.store = store
@@ -75,13 +86,18 @@ class ExecutionPanel:
         if plan is None or plan.partial or self.running:
             return
         self.clicks = ClickSource(timeout=None, on_offer=self._offered)  # a person answers
+        source: OutcomeSource = self.clicks
+        narrator: Narrator | None = None
+        if self.responses is not None:
+            source, narrator = self.responses(plan, self.clicks)
         self.session_id = self.store.start(plan, note="dashboard")
         self._log = []
         self.executor = Executor(
             plan,
-            self.clicks,
+            source,
             [self.store.recorder(self.session_id), self._on_event],
             step_delay=float(self.speed.value),
+            narrator=narrator,
         )
         self.start_button.disabled = True
         for button in (self.pause_button, self.step_button, self.abort_button):

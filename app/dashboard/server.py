@@ -19,6 +19,7 @@ from app.dashboard.execution_panel import ExecutionPanel
 from app.dashboard.node_details import details_markdown, stats_html
 from app.dashboard.planning_job import JobStatus, PlanningJob, partial_plan
 from app.dashboard.review_panel import ReviewPanel
+from app.dashboard.speech_panel import Speak, SpeechPanel
 from app.dashboard.stage import Events, PlanChanged
 from app.dashboard.tree_view import WALL_X, TreeView
 from app.dashboard.world import world_at
@@ -45,6 +46,7 @@ class Dashboard:
         cache_dir: str | None = None,
         data_dir: str | None = None,
         load_models: bool = True,
+        speak: Speak = "page",
     ) -> None:
         self.server = viser.ViserServer(host=host, port=port, label="Tandem", verbose=False)
         self.server.scene.configure_default_lights(cast_shadow=False)
@@ -63,7 +65,8 @@ class Dashboard:
         self._build_gui()
         self.store = SessionStore(data_dir)
         gui = self.server.gui
-        self.execution = ExecutionPanel(gui, self, self.events, self.store)
+        self.speech = SpeechPanel(gui, self, self.events, speak)
+        self.execution = ExecutionPanel(gui, self, self.events, self.store, self.speech.responses)
         self.review = ReviewPanel(gui, self, self.events, self.store)
         self.bench = BenchScene(self.server, load_models=load_models)
         self.tree = TreeView(self.server, self.select)
@@ -335,7 +338,7 @@ class Dashboard:
     def close(self) -> None:
         if self.job is not None:
             self.job.cancel()
-        for panel in (self.execution, self.review):
+        for panel in (self.execution, self.review, self.speech):
             panel.close()
         self.events.clear()
         self.server.stop()
