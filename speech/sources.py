@@ -21,10 +21,11 @@ from typing import Protocol
 
 import numpy as np
 
-from speech.audio import RATE, Recording, as_int16, level_db, read_wav, resample, rms
+from speech.audio import RATE, Recording, as_int16, read_wav, resample, rms
 from speech.devices import require_device
 from speech.languages import Language, language
 from speech.synthesis import espeak_samples
+from speech.voice_activity import EndOfSpeech
 
 
 class AudioSource(Protocol):
@@ -121,14 +122,17 @@ class SimulatedVoice:
 class MicrophoneSource:
     """The default microphone, one utterance per `listen()`.
 
-    End of speech: the first 0.3 s set the noise floor; speech starts when a
-    30 ms block is `start_db` above it, and ends after `pause_s` of blocks
-    back under it. `NoAudioDevice` (one line) when there is no microphone.
+    The utterance is cut by `voice_activity.EndOfSpeech` (the noise floor of
+    the first 0.3 s, an onset `start_db` above it, then `pause_s` of quiet);
+    0.3 s before the onset are kept. `NoAudioDevice` (one line) when there is
+    no microphone.
     """
 
     BLOCK_S = 0.03
 
-    def __init__(self, start_db: float = 12.0, pause_s: float = 0.7, max_s: float = 8.0) -> None:
+    def __init__(
+        self, start_db: float = 12.0, pause_s: float = 0.35, max_s: float = 8.0
+    ) -> None:
         self._sd = require_device("input")
         self.start_db = start_db
         self.pause_s = pause_s
@@ -139,9 +143,7 @@ class MicrophoneSource:
         device_rate = int(self._sd.query_devices(kind="input")["default_samplerate"])
         block = int(self.BLOCK_S * device_rate)
         blocks: list[np.ndarray] = []
-        floor: float | None = None
-        started_at: int | None = None
-        quiet = 0
+        cut = EndOfSpeech(self.BLOCK_S, self.start_db, self.pause_s, self.max_s)
         deadline = time.monotonic() + timeout_s
         with self._sd.InputStream(samplerate=device_rate, channels=1, dtype="int16") as stream:
             while True:
@@ -149,20 +151,11 @@ class MicrophoneSource:
                 chunk = as_int16(data)
                 self.level = rms(chunk)
                 blocks.append(chunk)
-                loud = level_db(chunk)
-                if floor is None:
-                    if len(blocks) * self.BLOCK_S >= 0.3:
-                        floor = float(np.median([level_db(b) for b in blocks]))
-                    continue
-                if started_at is None:
-                    if loud > floor + self.start_db:
-                        started_at = max(0, len(blocks) - 10)  # keep 0.3 s before onset
-                    elif time.monotonic() > deadline:
-                        return None
-                    continue
-                quiet = quiet + 1 if loud < floor + self.start_db / 2 else 0
-                spoken = (len(blocks) - started_at) * self.BLOCK_S
-                if quiet * self.BLOCK_S >= self.pause_s or spoken >= self.max_s:
+                if cut.feed(chunk):
                     break
-        samples = resample(np.concatenate(blocks[started_at:]), device_rate, RATE)
+                if cut.started_at is None and time.monotonic() > deadline:
+                    return None
+        assert cut.started_at is not None
+        first = max(0, cut.started_at - int(0.3 / self.BLOCK_S))
+        samples = resample(np.concatenate(blocks[first:]), device_rate, RATE)
         return Recording(samples=samples, rate=RATE, origin="microphone")

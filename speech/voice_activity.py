@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from speech.audio import Samples
+from speech.audio import Samples, level_db
 
 FRAME_S = 0.02
 
@@ -54,3 +54,49 @@ def activity(
         peak_db=float(levels.max()),
         active=active,
     )
+
+
+class EndOfSpeech:
+    """Where an utterance ends in a live stream, block by block (the microphone's cut).
+
+    The first `floor_s` set the noise floor; speech starts at a block `start_db`
+    above it and ends after `pause_s` of blocks back under half that margin (or
+    after `max_s` of speech). The pause is the price of every answer: the
+    recogniser can only start once it has passed, so it is kept short (0.35 s:
+    a yes/no answer has no pause inside; 0.7 s measured 0.8 s from the end of
+    speech to the answer, over the 0.5 s target).
+    """
+
+    def __init__(
+        self,
+        block_s: float,
+        start_db: float = 12.0,
+        pause_s: float = 0.35,
+        max_s: float = 8.0,
+        floor_s: float = 0.3,
+    ) -> None:
+        self.block_s = block_s
+        self.start_db = start_db
+        self.pause_s = pause_s
+        self.max_s = max_s
+        self.floor_s = floor_s
+        self.levels: list[float] = []
+        self.floor: float | None = None
+        self.started_at: int | None = None  # block index of the onset
+        self._quiet = 0
+
+    def feed(self, block: Samples) -> bool:
+        """Takes the next block; True once the utterance has ended."""
+        loud = level_db(block)
+        self.levels.append(loud)
+        if self.floor is None:
+            if len(self.levels) * self.block_s >= self.floor_s:
+                self.floor = float(np.median(self.levels))
+            return False
+        if self.started_at is None:
+            if loud > self.floor + self.start_db:
+                self.started_at = len(self.levels) - 1
+            return False
+        self._quiet = self._quiet + 1 if loud < self.floor + self.start_db / 2 else 0
+        spoken = (len(self.levels) - self.started_at) * self.block_s
+        return self._quiet * self.block_s >= self.pause_s or spoken >= self.max_s

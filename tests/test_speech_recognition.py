@@ -133,3 +133,26 @@ def test_english_model_missing_offline_says_how_to_get_one(
         assert "\n" not in message and "internet" in message and MODEL_ENV in message
     else:
         pytest.skip(f"an English model is available here: {found}")
+
+
+def test_end_of_speech_cuts_a_streamed_answer_just_after_it_ends() -> None:
+    from speech.voice_activity import EndOfSpeech
+
+    block = int(0.03 * RATE)
+    clip = SimulatedVoice("ko", pause_s=1.0).render("아니요").samples
+    loud = np.flatnonzero(np.abs(clip.astype(np.int32)) > 0.01 * np.abs(clip).max())
+    start_s, end_s = loud[0] / RATE, (loud[-1] + 1) / RATE
+    cut = EndOfSpeech(0.03)
+    ended_at = None
+    for number in range(len(clip) // block):
+        if cut.feed(clip[number * block : (number + 1) * block]):
+            ended_at = (number + 1) * 0.03
+            break
+    assert cut.started_at is not None and abs(cut.started_at * 0.03 - start_s) < 0.1
+    assert ended_at is not None and cut.pause_s <= ended_at - end_s <= cut.pause_s + 0.15
+    # Silence and steady hiss never start an utterance.
+    for quiet in (np.zeros(2 * RATE), np.random.default_rng(1).normal(0, 300, 2 * RATE)):
+        idle = EndOfSpeech(0.03)
+        samples = quiet.astype(np.int16)
+        assert not any(idle.feed(samples[i : i + block]) for i in range(0, len(samples), block))
+        assert idle.started_at is None
