@@ -22,7 +22,7 @@ from typing import Protocol
 import numpy as np
 
 from speech.audio import RATE, Recording, as_int16, read_wav, resample, rms
-from speech.devices import require_device
+from speech.devices import microphone, require_device
 from speech.languages import Language, language
 from speech.synthesis import espeak_samples
 from speech.voice_activity import EndOfSpeech
@@ -124,28 +124,31 @@ class MicrophoneSource:
 
     The utterance is cut by `voice_activity.EndOfSpeech` (the noise floor of
     the first 0.3 s, an onset `start_db` above it, then `pause_s` of quiet);
-    0.3 s before the onset are kept. `NoAudioDevice` (one line) when there is
-    no microphone.
+    0.3 s before the onset are kept. The device is `$TANDEM_MICROPHONE` (an
+    index or part of a name, see `tandem listen --devices`), else the system's
+    default. `NoAudioDevice` (one line) when there is no microphone.
     """
 
     BLOCK_S = 0.03
 
-    def __init__(
-        self, start_db: float = 12.0, pause_s: float = 0.35, max_s: float = 8.0
-    ) -> None:
-        self._sd = require_device("input")
+    def __init__(self, start_db: float = 12.0, pause_s: float = 0.35, max_s: float = 8.0) -> None:
+        self.device = microphone()
+        self._sd = require_device("input", self.device)
         self.start_db = start_db
         self.pause_s = pause_s
         self.max_s = max_s
         self.level = 0.0
 
     def listen(self, timeout_s: float) -> Recording | None:
-        device_rate = int(self._sd.query_devices(kind="input")["default_samplerate"])
+        info = self._sd.query_devices(self.device, kind="input")
+        device_rate = int(info["default_samplerate"])
         block = int(self.BLOCK_S * device_rate)
         blocks: list[np.ndarray] = []
         cut = EndOfSpeech(self.BLOCK_S, self.start_db, self.pause_s, self.max_s)
         deadline = time.monotonic() + timeout_s
-        with self._sd.InputStream(samplerate=device_rate, channels=1, dtype="int16") as stream:
+        with self._sd.InputStream(
+            device=self.device, samplerate=device_rate, channels=1, dtype="int16"
+        ) as stream:
             while True:
                 data, _ = stream.read(block)
                 chunk = as_int16(data)

@@ -156,3 +156,14 @@ def test_end_of_speech_cuts_a_streamed_answer_just_after_it_ends() -> None:
         samples = quiet.astype(np.int16)
         assert not any(idle.feed(samples[i : i + block]) for i in range(0, len(samples), block))
         assert idle.started_at is None
+
+
+def test_a_microphone_named_by_the_environment_must_exist(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from speech.devices import MICROPHONE_ENV
+
+    monkeypatch.setenv(MICROPHONE_ENV, "no-such-microphone-here")
+    with pytest.raises(NoAudioDevice) as error:
+        MicrophoneSource()
+    assert "\n" not in str(error.value) and MICROPHONE_ENV in str(error.value)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from app.cli.exit_codes import BadInput
 from speech.audio import read_wav
-from speech.devices import NoAudioDevice
+from speech.devices import MICROPHONE_ENV, NoAudioDevice, input_devices
 from speech.languages import LANGUAGES, UnknownLanguage, language
 from speech.models import NoSpeechModel
 from speech.recognition import Recognizer
@@ -32,6 +32,11 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--timeout", type=float, default=8.0, help="seconds to wait for speech (default 8)"
     )
+    parser.add_argument(
+        "--devices",
+        action="store_true",
+        help=f"list the microphones (choose one: ${MICROPHONE_ENV}=INDEX or part of a name)",
+    )
     parser.set_defaults(run=run)
 
 
@@ -46,6 +51,13 @@ def _words(spec: str | None) -> tuple[tuple[str, ...] | None, tuple[str, ...] | 
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.devices:
+        devices = input_devices()
+        for index, name in devices:
+            print(f"{index}: {name}")
+        if not devices:
+            print("no microphone on this machine")
+        return 0
     yes, no = _words(args.words)
     try:
         recognizer = Recognizer(language(args.language), args.vosk_model, yes, no)
