@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import random
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Protocol
 
@@ -126,7 +127,9 @@ class MicrophoneSource:
     the first 0.3 s, an onset `start_db` above it, then `pause_s` of quiet);
     0.3 s before the onset are kept. The device is `$TANDEM_MICROPHONE` (an
     index or part of a name, see `tandem listen --devices`), else the system's
-    default. `NoAudioDevice` (one line) when there is no microphone.
+    default. `on_level`, when set, is told the RMS of every 30 ms block while
+    it listens (the dashboard's input-level meter). `NoAudioDevice` (one line)
+    when there is no microphone.
     """
 
     BLOCK_S = 0.03
@@ -138,6 +141,7 @@ class MicrophoneSource:
         self.pause_s = pause_s
         self.max_s = max_s
         self.level = 0.0
+        self.on_level: Callable[[float], None] | None = None
 
     def listen(self, timeout_s: float) -> Recording | None:
         info = self._sd.query_devices(self.device, kind="input")
@@ -153,6 +157,8 @@ class MicrophoneSource:
                 data, _ = stream.read(block)
                 chunk = as_int16(data)
                 self.level = rms(chunk)
+                if self.on_level is not None:
+                    self.on_level(self.level)
                 blocks.append(chunk)
                 if cut.feed(chunk):
                     break

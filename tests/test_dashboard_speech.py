@@ -111,6 +111,7 @@ def test_executing_sends_spoken_lines_to_the_page_and_the_voice_answers(
     assert final[:4] in (b"RIFF", b"ID3\x03", b"ID3\x04") or final[:2] == b"\xff\xfb"
     # The panel shows the engine and the last words heard with their meaning.
     page.get_by_text("Voice:", exact=False).first.wait_for()
+    page.get_by_text("Answers by", exact=True).first.scroll_into_view_if_needed()
     assert re.search(r"Heard '[^']+' \(confidence \d\.\d\d, try \d\): meaning", page.content())
     shot(page, "speech-panel")
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 import base64
 import random
 import threading
+import time
 from typing import Any, Literal
 
 import viser
@@ -36,9 +37,12 @@ from planner.plan import Plan
 from speech.devices import NoAudioDevice, play_local
 from speech.models import NoSpeechModel
 from speech.recognition import Recognizer
+from speech.sources import MicrophoneSource
 
 Speak = Literal["page", "local"]
 MODES = ("clicks", "simulated voice", "microphone")
+PANEL_ORDER = 10_000.0
+LEVEL_EVERY_S = 0.1  # the input-level meter's updates (blocks arrive every 30 ms)
 
 
 def audio_html(line: Line) -> str:
@@ -59,8 +63,10 @@ class SpeechPanel:
         self.voice: VoiceResponses | None = None
         self.lines: list[Line] = []
         self._recognizers: dict[str, Recognizer] = {}
+        self._level_at = 0.0
         self._lock = threading.Lock()
-        with gui.add_folder("Speech"):
+        # Last on the page, below the panels that were there before it.
+        with gui.add_folder("Speech", order=PANEL_ORDER):
             # Any: viser's types mark `.value` read-only, yet setting it updates the page.
             self.mode: Any = gui.add_dropdown("Answers by", MODES, initial_value=MODES[0])
             self.mute: Any = gui.add_checkbox("Mute", False)
@@ -93,6 +99,9 @@ class SpeechPanel:
             except (NoSpeechModel, NoAudioDevice) as error:
                 self.heard.content = f"**No voice answers:** {error}. Answer by clicks."
         if self.voice is not None:
+            audio = self.voice.voice.audio
+            if isinstance(audio, MicrophoneSource):
+                audio.on_level = self._level  # the meter moves while a person speaks
             return self.voice.source, self.voice.robot
         return clicks, RobotVoice(code, listeners=[self._spoken])
 
@@ -129,8 +138,13 @@ class SpeechPanel:
     def _listening(self, on: bool) -> None:
         self.listening.content = "**Listening...**" if on else "Not listening."
         if self.voice is not None:
-            level = getattr(self.voice.voice.audio, "level", 0.0)
-            self.level.value = min(100.0, 100.0 * 4 * float(level))  # speech RMS ~0.05-0.25
+            self._level(float(getattr(self.voice.voice.audio, "level", 0.0)), force=True)
+
+    def _level(self, rms: float, force: bool = False) -> None:
+        now = time.monotonic()
+        if force or now - self._level_at >= LEVEL_EVERY_S:
+            self._level_at = now
+            self.level.value = min(100.0, 400.0 * rms)  # speech RMS is ~0.05-0.25
 
     def _heard(self, attempt: Attempt) -> None:
         words = attempt.heard or "-"
