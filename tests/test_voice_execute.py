@@ -106,6 +106,13 @@ def test_a_real_cli_run_and_its_exported_session(tmp_path: Path) -> None:
     asked = [e for e in events if e["evidence"] and "answered_by" in e["evidence"]["detail"]]
     assert asked and all(e["evidence"]["detail"]["truth"]["said"] for e in asked)
     assert all(e["source"] in ("voice", "random") for e in asked)
+    # The listing says, under each question, what was heard and really said.
+    shown = tandem("sessions", "show", str(session), env=env)
+    assert shown.returncode == 0, shown.stderr
+    heard = [line for line in shown.stdout.splitlines() if "answered by" in line]
+    assert len(heard) == len(asked)
+    assert all("the simulated human said '" in line and "spoken by espeak" in line
+               for line in heard)  # fmt: skip
 
 
 def test_a_scripted_human_answers_as_scripted(tmp_path: Path) -> None:

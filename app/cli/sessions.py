@@ -9,6 +9,7 @@ from datetime import date
 from pathlib import Path
 
 from app.cli.exit_codes import BadInput
+from app.evidence_summary import summary
 from app.execution import RESULTS
 from app.store import SessionStore, iso
 
@@ -83,6 +84,9 @@ def _show(args: argparse.Namespace) -> int:
         if event.text:
             line += f"  {event.text}"
         print(line)
+        said = summary(event.evidence.detail) if event.evidence is not None else None
+        if said:
+            print(f"{'':25}{said}")
     return 0
 
 
