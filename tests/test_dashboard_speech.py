@@ -116,6 +116,17 @@ def test_executing_sends_spoken_lines_to_the_page_and_the_voice_answers(
     shot(page, "speech-panel")
 
 
+def test_the_review_shows_what_was_heard(dashboard: Dashboard) -> None:
+    session_id = dashboard.execution.session_id
+    assert session_id is not None
+    dashboard.review.refresh()
+    label = next(k for k, v in dashboard.review._ids.items() if v == session_id)
+    dashboard.review.open(label)
+    dashboard.review.show_step(len(dashboard.review.events) - 1)
+    content = dashboard.review.summary.content
+    assert "answered by voice" in content and "the simulated human said '" in content
+
+
 def test_mute_stops_the_audio_and_a_missing_model_keeps_the_clicks(
     dashboard: Dashboard, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:

@@ -15,6 +15,7 @@ from typing import Any
 import viser
 
 from app.dashboard.stage import Events, ExecutionFinished, Stage
+from app.evidence_summary import summary
 from app.execution import RESULTS
 from app.store import SessionRecord, SessionStore, UnknownSession, iso
 
@@ -109,6 +110,7 @@ class ReviewPanel:
             f"`{e.node}` {e.action or 'goal'}"
             + (f" → **{e.outcome}**" if e.outcome else "")
             + (f": {e.text}" if e.text else "")
+            + (f" ({heard})" if e.evidence and (heard := summary(e.evidence.detail)) else "")
             for e in self.events[: k + 1]
         ]
         s = self.session
