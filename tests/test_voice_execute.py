@@ -200,3 +200,23 @@ def test_a_wav_folder_answers_then_runs_dry_and_the_fallback_answers(tmp_path: P
         assert detail["answered_by"] == "fallback" and detail["tries"] == 2
         assert [a["reason"] for a in detail["attempts"]] == ["silence", "silence"]
         assert "truth" not in detail  # nobody simulated: no truth to tell
+
+
+def test_speak_local_without_speakers_says_so_once_and_goes_on(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from speech.devices import NoAudioDevice, require_device
+
+    try:
+        require_device("output")
+    except NoAudioDevice:
+        pass
+    else:
+        pytest.skip("this machine has speakers: the lines were played")
+    code = main([
+        "execute", str(KOREAN_DEFAULT), "--responses", "voice:sim", "--seed", "2",
+        "--speak", "local", "--data-dir", str(tmp_path),
+    ])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 0 and err.count("(not played: ") == 1
+    assert err.count("robot says (espeak):") >= 3

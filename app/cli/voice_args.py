@@ -17,7 +17,7 @@ from app.outcomes import RandomSource, ScriptError
 from app.voice_responses import VoiceResponses, voice_responses
 from app.voice_source import Attempt
 from planner.plan import Plan
-from speech.devices import NoAudioDevice
+from speech.devices import NoAudioDevice, play_local
 from speech.languages import UnknownLanguage
 from speech.models import NoSpeechModel
 
@@ -27,6 +27,24 @@ def print_line(line: Line) -> None:
         print(f'      robot says (not spoken: {line.error}): "{line.text}"', file=sys.stderr)
     else:
         print(f'      robot says ({line.engine}): "{line.text}"', file=sys.stderr, flush=True)
+
+
+class LocalSpeakers:
+    """Plays each line on this machine's speakers before the robot listens (so a
+    microphone does not hear the robot); without speakers, says so once."""
+
+    def __init__(self) -> None:
+        self.failed: str | None = None
+
+    def __call__(self, line: Line) -> None:
+        print_line(line)
+        if line.utterance is None or self.failed is not None:
+            return
+        try:
+            play_local(line.utterance)
+        except (NoAudioDevice, ValueError) as error:
+            self.failed = str(error)
+            print(f"      (not played: {error})", file=sys.stderr)
 
 
 def print_attempt(attempt: Attempt) -> None:
@@ -48,6 +66,7 @@ def voice_from_args(args: argparse.Namespace, plan: Plan, seed: int | None) -> V
     if not spec:
         raise BadInput("--responses voice:SOURCE: SOURCE is sim, mic or a folder of WAV files")
     code = args.language or plan_language(plan)
+    speak = args.speak or ("local" if spec == "mic" else "none")
     try:
         return voice_responses(
             spec,
@@ -56,7 +75,9 @@ def voice_from_args(args: argparse.Namespace, plan: Plan, seed: int | None) -> V
             seed=seed,
             human=args.human,
             model_dir=args.vosk_model,
-            on_line=print_line,
+            # espeak-ng when played here: local playback takes WAV, gTTS gives MP3.
+            engine="espeak" if speak == "local" else "auto",
+            on_line=LocalSpeakers() if speak == "local" else print_line,
             on_attempt=print_attempt,
             on_fallback=print_fallback,
         )

@@ -38,6 +38,7 @@ from speech.devices import NoAudioDevice, play_local
 from speech.models import NoSpeechModel
 from speech.recognition import Recognizer
 from speech.sources import MicrophoneSource
+from speech.synthesis import Engine
 
 Speak = Literal["page", "local"]
 MODES = ("clicks", "simulated voice", "microphone")
@@ -92,6 +93,7 @@ class SpeechPanel:
                     clicks,
                     seed=random.randrange(2**31),
                     recognizer=self._recognizer(code),
+                    engine=self._engine,
                     on_line=self._spoken,
                     on_attempt=self._heard,
                     on_listening=self._listening,
@@ -103,7 +105,12 @@ class SpeechPanel:
             if isinstance(audio, MicrophoneSource):
                 audio.on_level = self._level  # the meter moves while a person speaks
             return self.voice.source, self.voice.robot
-        return clicks, RobotVoice(code, listeners=[self._spoken])
+        return clicks, RobotVoice(code, self._engine, listeners=[self._spoken])
+
+    @property
+    def _engine(self) -> Engine:
+        # Local playback takes WAV (espeak-ng); gTTS's MP3 plays only in the page.
+        return "espeak" if self.speak == "local" else "auto"
 
     def _recognizer(self, code: str) -> Recognizer:
         # One model per language for the dashboard's life: it takes seconds to load.
