@@ -149,6 +149,11 @@ def test_mute_stops_the_audio_and_a_missing_model_keeps_the_clicks(
     # No model for the language: one line in the panel, and the clicks answer.
     monkeypatch.setenv("TANDEM_VOSK_MODEL", str(tmp_path))
     speech._recognizers.clear()
+    # Choosing a voice loads the model at once, and says at once that there is none.
+    assert speech.mode.value == "simulated voice"
+    speech.heard.content = ""
+    speech._prepare()
+    wait_for(lambda: "No voice answers" in speech.heard.content, 10)
     clicks = ClickSource(timeout=0.01)
     source, _ = speech.responses(plan, clicks)
     assert source is clicks

@@ -64,6 +64,7 @@ class SpeechPanel:
         self.voice: VoiceResponses | None = None
         self.lines: list[Line] = []
         self._recognizers: dict[str, Recognizer] = {}
+        self._loading = threading.Lock()  # apart from _lock: a load takes seconds
         self._level_at = 0.0
         self._lock = threading.Lock()
         # Last on the page, below the panels that were there before it.
@@ -77,6 +78,25 @@ class SpeechPanel:
             self.heard = gui.add_markdown("Nothing heard yet.")
             self.audio = gui.add_html("")
         events.subscribe(ExecutionFinished, lambda _: self._listening(False))
+        self.mode.on_update(lambda _: self._prepare())
+
+    def _prepare(self) -> None:
+        """Loads the speech model as soon as a voice is chosen (it takes seconds), so
+        the first question does not wait for it; says at once if there is none."""
+        plan = self.stage.current_plan()
+        if str(self.mode.value) == "clicks" or plan is None:
+            return
+        code = plan_language(plan)
+
+        def load() -> None:
+            try:
+                self._recognizer(code)
+            except NoSpeechModel as error:
+                self.heard.content = f"**No voice answers:** {error}. Answer by clicks."
+            else:
+                self.heard.content = f"Speech model for {code} ready."
+
+        threading.Thread(target=load, name="speech-model", daemon=True).start()
 
     # -- what the execution panel asks for ------------------------------------------
 
@@ -114,7 +134,7 @@ class SpeechPanel:
 
     def _recognizer(self, code: str) -> Recognizer:
         # One model per language for the dashboard's life: it takes seconds to load.
-        with self._lock:
+        with self._loading:
             if code not in self._recognizers:
                 self._recognizers[code] = Recognizer(code)
             return self._recognizers[code]
