@@ -36,7 +36,7 @@ from planner.plan import PlanNode
 from planner.vocabulary import QUESTIONS
 from speech.languages import Language, language
 from speech.recognition import Heard, Recognizer
-from speech.sources import AudioSource, SimulatedVoice
+from speech.sources import AudioSource, MicrophoneSource, SimulatedVoice
 from speech.synthesis import Engine
 
 ANSWERS = ("yes", "no")
@@ -185,15 +185,25 @@ class VoiceSource:
     def _listen(self, node_id: str, number: int) -> Attempt:
         if self.on_listening is not None:
             self.on_listening(True)
+        decoding = None
         try:
-            recording = self.audio.listen(self.listen_timeout_s)
+            if isinstance(self.audio, MicrophoneSource):
+                # Decoded while it is spoken: the answer comes right after the pause.
+                decoding = self.recognizer.start()
+                recording = self.audio.listen(self.listen_timeout_s, decoding.feed)
+            else:
+                recording = self.audio.listen(self.listen_timeout_s)
         finally:
             if self.on_listening is not None:
                 self.on_listening(False)
         if recording is None:
             # Nothing came within the timeout: the same refusal as a silent clip.
             return Attempt(node_id, number, (), 0.0, None, "silence")
-        heard: Heard = self.recognizer.recognize(recording.samples, recording.rate)
+        heard: Heard = (
+            decoding.finish()
+            if decoding is not None
+            else self.recognizer.recognize(recording.samples, recording.rate)
+        )
         return Attempt(
             node_id,
             number,

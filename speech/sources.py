@@ -22,11 +22,11 @@ from typing import Protocol
 
 import numpy as np
 
-from speech.audio import RATE, Recording, as_int16, read_wav, resample, rms
+from speech.audio import BLOCK, RATE, Recording, Samples, as_int16, read_wav, resample, rms
 from speech.devices import microphone, require_device
 from speech.languages import Language, language
 from speech.synthesis import espeak_samples
-from speech.voice_activity import EndOfSpeech
+from speech.voice_activity import EndOfSpeech, LiveUtterance
 
 
 class AudioSource(Protocol):
@@ -143,12 +143,26 @@ class MicrophoneSource:
         self.level = 0.0
         self.on_level: Callable[[float], None] | None = None
 
-    def listen(self, timeout_s: float) -> Recording | None:
-        info = self._sd.query_devices(self.device, kind="input")
-        device_rate = int(info["default_samplerate"])
+    def _rate(self) -> int:
+        """16 kHz when the device can record it (then blocks go to the recogniser as
+        they come), else the device's own rate."""
+        try:
+            self._sd.check_input_settings(device=self.device, samplerate=RATE, channels=1)
+        except Exception:  # PortAudioError or ValueError: the rate is not supported
+            return int(self._sd.query_devices(self.device, kind="input")["default_samplerate"])
+        return RATE
+
+    def listen(
+        self, timeout_s: float, feed: Callable[[Samples], None] | None = None
+    ) -> Recording | None:
+        """The next utterance; `feed` (a `Decoding.feed`) gets its 16 kHz audio in
+        30 ms blocks, while it is spoken when the device records at 16 kHz."""
+        device_rate = self._rate()
+        live = feed if device_rate == RATE else None
         block = int(self.BLOCK_S * device_rate)
-        blocks: list[np.ndarray] = []
-        cut = EndOfSpeech(self.BLOCK_S, self.start_db, self.pause_s, self.max_s)
+        utterance = LiveUtterance(
+            EndOfSpeech(self.BLOCK_S, self.start_db, self.pause_s, self.max_s), live
+        )
         deadline = time.monotonic() + timeout_s
         with self._sd.InputStream(
             device=self.device, samplerate=device_rate, channels=1, dtype="int16"
@@ -159,12 +173,13 @@ class MicrophoneSource:
                 self.level = rms(chunk)
                 if self.on_level is not None:
                     self.on_level(self.level)
-                blocks.append(chunk)
-                if cut.feed(chunk):
+                if utterance.push(chunk):
                     break
-                if cut.started_at is None and time.monotonic() > deadline:
+                if not utterance.started and time.monotonic() > deadline:
                     return None
-        assert cut.started_at is not None
-        first = max(0, cut.started_at - int(0.3 / self.BLOCK_S))
-        samples = resample(np.concatenate(blocks[first:]), device_rate, RATE)
+        samples = resample(utterance.samples(), device_rate, RATE)
+        if feed is not None and live is None:
+            # Another rate: resampled once it is all in, then decoded.
+            for start in range(0, len(samples), BLOCK):
+                feed(samples[start : start + BLOCK])
         return Recording(samples=samples, rate=RATE, origin="microphone")

@@ -10,6 +10,7 @@ frames is silence.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,3 +101,47 @@ class EndOfSpeech:
         self._quiet = self._quiet + 1 if loud < self.floor + self.start_db / 2 else 0
         spoken = (len(self.levels) - self.started_at) * self.block_s
         return self._quiet * self.block_s >= self.pause_s or spoken >= self.max_s
+
+
+class LiveUtterance:
+    """The blocks of a live stream that make one utterance, as they arrive.
+
+    `push` each block; `EndOfSpeech` says where the utterance starts and ends,
+    and the `pre_roll_s` before the onset are kept (the recogniser needs the
+    lead-in). `feed`, when given (a recogniser's `Decoding.feed`), gets every
+    block of the utterance as soon as it is known to belong to it, so decoding
+    runs while the person speaks.
+    """
+
+    def __init__(
+        self,
+        cut: EndOfSpeech,
+        feed: Callable[[Samples], None] | None = None,
+        pre_roll_s: float = 0.3,
+    ) -> None:
+        self.cut = cut
+        self.feed = feed
+        self.pre_roll = int(round(pre_roll_s / cut.block_s))
+        self.blocks: list[Samples] = []
+
+    @property
+    def started(self) -> bool:
+        return self.cut.started_at is not None
+
+    def push(self, block: Samples) -> bool:
+        """Takes the next block; True once the utterance has ended."""
+        self.blocks.append(block)
+        was_started = self.started
+        ended = self.cut.feed(block)
+        if self.feed is not None and self.started:
+            for piece in self.blocks[self._first() :] if not was_started else [block]:
+                self.feed(piece)
+        return ended
+
+    def _first(self) -> int:
+        return max(0, (self.cut.started_at or 0) - self.pre_roll)
+
+    def samples(self) -> Samples:
+        """The utterance so far, from the pre-roll on."""
+        kept = self.blocks[self._first() :] if self.started else []
+        return np.concatenate(kept) if kept else np.zeros(0, dtype=np.int16)

@@ -71,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
             recording = read_wav(path)
         except Exception as error:  # wave.Error, EOFError: not a WAV file
             raise BadInput(f"--wav {path}: not a readable WAV file ({error})") from error
+        heard = recognizer.recognize_recording(recording)
     else:
         try:
             microphone = MicrophoneSource()
@@ -78,12 +79,11 @@ def run(args: argparse.Namespace) -> int:
             raise BadInput(f"{error}; give a recording with --wav FILE") from error
         print(f"listening ({recognizer.language.name}: {', '.join(recognizer.yes_words)} "
               f"/ {', '.join(recognizer.no_words)})...", flush=True)  # fmt: skip
-        heard_audio = microphone.listen(args.timeout)
-        if heard_audio is None:
+        decoding = recognizer.start()  # decoded while it is spoken
+        if microphone.listen(args.timeout, decoding.feed) is None:
             print("heard nothing")
             return 1
-        recording = heard_audio
-    heard = recognizer.recognize_recording(recording)
+        heard = decoding.finish()
     words = " ".join(heard.words) or "-"
     if heard.accepted:
         print(f"heard '{words}' confidence {heard.confidence:.2f}: {heard.meaning}")
