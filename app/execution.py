@@ -5,9 +5,12 @@ event (the arm's joint path); a communication node without outcomes emits
 what the robot says; a node with outcomes (sensing, or a question to the
 human) asks the `OutcomeSource` which one happened and follows that branch.
 Every step is an `ExecutionEvent` handed to the listeners (the session store,
-the dashboard, a log). It runs synchronously (`run()`) or in its own thread
-(`start()`), and can be paused, single-stepped, resumed and aborted from
-any thread.
+the dashboard, a log). A `narrator`, when given, is called at every
+communication node as the executor reaches it, before its event (and before a
+question is asked): it speaks the sentence and returns what to keep of that
+(the text, the engine), which the event carries as evidence. It runs
+synchronously (`run()`) or in its own thread (`start()`), and can be paused,
+single-stepped, resumed and aborted from any thread.
 """
 
 from __future__ import annotations
@@ -54,6 +57,15 @@ class ExecutionEvent:
 
 
 Listener = Callable[[ExecutionEvent], None]
+# Speaks a communication node's sentence; what it returns is kept with the event.
+Narrator = Callable[[str, PlanNode], Evidence | None]
+
+
+def merged(first: Evidence | None, second: Evidence | None) -> Evidence | None:
+    """Both evidences in one: `second`'s detail wins a shared key, its picture if any."""
+    if first is None or second is None:
+        return first or second
+    return Evidence({**first.detail, **second.detail}, second.jpeg or first.jpeg)
 
 
 class _Aborted(Exception):
@@ -75,8 +87,10 @@ class Executor:
         listeners: Iterable[Listener] = (),
         step_delay: float = 0.0,
         max_steps: int = 10_000,
+        narrator: Narrator | None = None,
     ) -> None:
         self.plan = plan
+        self.narrator = narrator
         self.nodes = plan.nodes
         self.source = source
         self.listeners = list(listeners)
@@ -202,9 +216,12 @@ class Executor:
                 self._emit(node_id, node, text="no way on from here")
                 return "dead-end"
             options = node.outcomes
+            spoken = None
+            if self.narrator is not None and node.kind == "communication" and node.say:
+                spoken = self.narrator(node_id, node)
             if not options:
                 text = node.say if node.kind == "communication" else None
-                self._emit(node_id, node, text=text, motion=node.motion)
+                self._emit(node_id, node, text=text, motion=node.motion, evidence=spoken)
                 next_id = children[0].node
             else:
                 try:
@@ -219,7 +236,7 @@ class Executor:
                     source=outcome.source,
                     confidence=outcome.confidence,
                     text=text or describe(node.action, outcome.label),
-                    evidence=outcome.evidence,
+                    evidence=merged(spoken, outcome.evidence),
                 )
                 next_id = next(c.node for c in children if c.outcome == outcome.label)
             try:

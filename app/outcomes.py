@@ -261,6 +261,22 @@ class ClickSource:
             self._interrupted = True
             self._cond.notify_all()
 
+    def clicked(self, node_id: str) -> bool:
+        """Whether the offer at `node_id` has been clicked and not yet taken."""
+        with self._cond:
+            offer = self._offer
+            return offer is not None and offer.node_id == node_id and self._clicked is not None
+
+    def withdraw(self, node_id: str) -> None:
+        """Takes the offer at `node_id` back (another source answered it)."""
+        with self._cond:
+            if self._offer is None or self._offer.node_id != node_id:
+                return
+            self._offer = None
+            self._clicked = None
+        if self.on_offer is not None:
+            self.on_offer(None)
+
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         action = node.action
         self.offer(node_id, options, action)

@@ -12,7 +12,9 @@ branch, so only what the recogniser accepted ever becomes an outcome.
 
 Every attempt is kept per node (`attempts`), with the words heard, the
 confidence and why it was refused, so a session can say whether an answer
-came from the voice or, after which refusals, from the fallback.
+came from the voice or, after which refusals, from the fallback:
+`evidence(node_id)` is that record as the session stores it (words, confidence,
+meaning, tries, engine, and what the simulated human really said when one did).
 
 `SimulatedSpeaker` is the simulated human's mouth: told that the robot asked,
 it chooses an answer among the node's options (seeded random, or a script)
@@ -28,20 +30,26 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from app.execution import ExecutionEvent
-from app.outcomes import Outcome
+from app.narration import RobotVoice
+from app.outcomes import Evidence, Outcome
 from planner.plan import PlanNode
 from planner.vocabulary import QUESTIONS
 from speech.languages import Language, language
 from speech.recognition import Heard, Recognizer
-from speech.sources import AudioSource, SimulatedVoice
-from speech.synthesis import Engine, synthesize
+from speech.sources import AudioSource, MicrophoneSource, SimulatedVoice
+from speech.synthesis import Engine
 
 ANSWERS = ("yes", "no")
 
 # Told (node_id, node, options) once the robot has spoken a question and
 # before it listens, on every attempt: how a simulated human knows when to speak.
 QuestionListener = Callable[[str, PlanNode, Sequence[str]], None]
+# What really was said at a node (a simulated human knows), for the evidence.
+TruthOf = Callable[[str], dict[str, object] | None]
+# Told each attempt as it is heard (the dashboard shows the last words).
+AttemptListener = Callable[["Attempt"], None]
+# Told True when listening starts and False when it ends (the listening indicator).
+ListeningListener = Callable[[bool], None]
 
 
 def is_question(node: PlanNode, options: Sequence[str]) -> bool:
@@ -89,8 +97,10 @@ class VoiceSource:
 
     `recognizer` may be shared (the model is costly to load); without one a
     `Recognizer` for `language_code` is made. `engine` is the speech engine
-    ("auto": gTTS when its service answers, else espeak-ng). `tries` is how
-    many times a question is asked before giving up to the fallback.
+    ("auto": gTTS when its service answers, else espeak-ng); `voice`, when
+    given, is the `RobotVoice` that speaks (shared with the narrator, so every
+    line reaches the same listeners). `tries` is how many times a question is
+    asked before giving up to the fallback.
     """
 
     name = "voice"
@@ -105,6 +115,10 @@ class VoiceSource:
         listen_timeout_s: float = 5.0,
         tries: int = 2,
         on_question: QuestionListener | None = None,
+        voice: RobotVoice | None = None,
+        truth: TruthOf | None = None,
+        on_attempt: AttemptListener | None = None,
+        on_listening: ListeningListener | None = None,
     ) -> None:
         self.language = (
             language_code if isinstance(language_code, Language) else language(language_code)
@@ -116,11 +130,13 @@ class VoiceSource:
                 f"the questions are asked in {self.language.code}"
             )
         self.audio = audio
-        self.engine: Engine = engine
-        self.cache_dir = cache_dir
+        self.voice = voice if voice is not None else RobotVoice(self.language, engine, cache_dir)
         self.listen_timeout_s = listen_timeout_s
         self.tries = tries
         self.on_question = on_question
+        self.truth = truth
+        self.on_attempt = on_attempt
+        self.on_listening = on_listening
         self.spoken: list[Spoken] = []
         self.attempts: dict[str, list[Attempt]] = {}
         self.last_heard: Attempt | None = None
@@ -129,20 +145,10 @@ class VoiceSource:
     # -- speaking -------------------------------------------------------------
 
     def speak(self, node_id: str, text: str) -> Spoken:
-        """Says `text` and records which engine said it; `SynthesisError` if none could."""
-        utterance = synthesize(text, self.language, self.engine, self.cache_dir)
-        line = Spoken(node_id, text, utterance.engine)
+        """Says `text` and records which engine said it ("none" if none could)."""
+        line = Spoken(node_id, text, self.voice.say(node_id, text).engine)
         self.spoken.append(line)
         return line
-
-    def narrate(self, event: ExecutionEvent) -> None:
-        """An executor listener: speaks the sentences that ask nothing (requests, notices).
-
-        Questions are spoken by `choose` itself, before listening, so they are
-        skipped here; otherwise they would be said twice.
-        """
-        if event.kind == "communication" and event.outcome is None and event.text:
-            self.speak(event.node, event.text)
 
     # -- answering ------------------------------------------------------------
 
@@ -164,18 +170,40 @@ class VoiceSource:
             attempt = self._listen(node_id, number)
             records.append(attempt)
             self.last_heard = attempt
+            if self.on_attempt is not None:
+                self.on_attempt(attempt)
             if attempt.meaning is not None and attempt.meaning in options:
                 return Outcome(
-                    attempt.meaning, self.name, attempt.confidence, text=f"heard '{attempt.heard}'"
+                    attempt.meaning,
+                    self.name,
+                    attempt.confidence,
+                    text=f"heard '{attempt.heard}'",
+                    evidence=self.evidence(node_id),
                 )
         return None  # refused every time: the fallback answers
 
     def _listen(self, node_id: str, number: int) -> Attempt:
-        recording = self.audio.listen(self.listen_timeout_s)
+        if self.on_listening is not None:
+            self.on_listening(True)
+        decoding = None
+        try:
+            if isinstance(self.audio, MicrophoneSource):
+                # Decoded while it is spoken: the answer comes right after the pause.
+                decoding = self.recognizer.start()
+                recording = self.audio.listen(self.listen_timeout_s, decoding.feed)
+            else:
+                recording = self.audio.listen(self.listen_timeout_s)
+        finally:
+            if self.on_listening is not None:
+                self.on_listening(False)
         if recording is None:
             # Nothing came within the timeout: the same refusal as a silent clip.
             return Attempt(node_id, number, (), 0.0, None, "silence")
-        heard: Heard = self.recognizer.recognize(recording.samples, recording.rate)
+        heard: Heard = (
+            decoding.finish()
+            if decoding is not None
+            else self.recognizer.recognize(recording.samples, recording.rate)
+        )
         return Attempt(
             node_id,
             number,
@@ -187,6 +215,30 @@ class VoiceSource:
         )
 
     # -- what happened ----------------------------------------------------------
+
+    def evidence(self, node_id: str) -> Evidence:
+        """What the session keeps of the voice at a question (after the last try)."""
+        tried = self.attempts.get(node_id, [])
+        last = tried[-1] if tried else None
+        spoken = [s for s in self.spoken if s.node_id == node_id]
+        detail: dict[str, object] = {
+            "answered_by": "voice" if last is not None and last.accepted else "fallback",
+            "heard": last.heard if last is not None else "",
+            "confidence": round(last.confidence, 3) if last is not None else 0.0,
+            "meaning": last.meaning if last is not None else None,
+            "tries": len(tried),
+            "attempts": [
+                {"heard": a.heard, "confidence": round(a.confidence, 3), "meaning": a.meaning,
+                 "reason": a.reason, "audio": a.origin}
+                for a in tried
+            ],  # fmt: skip
+            "engine": spoken[-1].engine if spoken else "none",
+            "recognizer": f"vosk ({self.language.code}, closed grammar)",
+        }
+        truth = self.truth(node_id) if self.truth is not None else None
+        if truth is not None:
+            detail["truth"] = truth
+        return Evidence(detail)
 
     def answered_by_voice(self, node_id: str) -> bool:
         return any(a.accepted for a in self.attempts.get(node_id, ()))
@@ -249,6 +301,13 @@ class SimulatedSpeaker:
         said = Said(node_id, label, phrase)
         self.said.append(said)
         return said
+
+    def truth(self, node_id: str) -> dict[str, object] | None:
+        """What it really answered at `node_id` and the words it used, if it was asked."""
+        if node_id not in self.choices:
+            return None
+        words = [s.phrase for s in self.said if s.node_id == node_id]
+        return {"answer": self.choices[node_id], "said": words}
 
     def _choose(self, options: Sequence[str]) -> str:
         answers = [o for o in options if o in ANSWERS]

@@ -28,8 +28,31 @@ TERSE = {
 }
 
 
-def say(action: Communication, verbosity: str = "normal", reason: str = "") -> str:
-    """The sentence spoken; `terse` is short, `chatty` adds the reason."""
+# Korean: "부품" after a part's name spares choosing 을/를 by its last sound.
+KOREAN_TERSE = {
+    ConfirmAttach.name: "{0} 부품을 {1}에 붙이세요?",
+    AskHelp.name: "{0} 부품을 {1}에 붙여 주시겠어요?",
+    OfferHelp.name: "{0} 부품은 날카로워요. 제가 할까요?",
+    RequestToUnhold.name: "{0} 부품을 내려놓아 주세요.",
+    RequestToAttach.name: "{0} 부품을 {1}에 붙여 주세요.",
+}
+KOREAN = {
+    ConfirmAttach.name: "{0} 부품을 들고 계시네요. {1}에 붙이실 건가요?",
+    AskHelp.name: "{0} 부품에 손이 닿지 않아요. {1}에 붙여 주시겠어요?",
+    OfferHelp.name: "조심하세요, {0} 부품은 날카로워요. 제가 {1}에 붙여 드릴까요?",
+    RequestToUnhold.name: "{0} 부품을 내려놓아 주세요. 제가 처리할게요.",
+    RequestToAttach.name: "{0} 부품을 {1}에 붙여 주세요. 꼭 필요한데 제 손이 닿지 않아요.",
+}
+
+
+def say(
+    action: Communication, verbosity: str = "normal", reason: str = "", language: str = "en-us"
+) -> str:
+    """The sentence spoken in `language`; `terse` is short, `chatty` adds the reason
+    (the reason is written in English only, so a Korean sentence goes without it)."""
+    if language == "ko":
+        table = KOREAN_TERSE if verbosity == "terse" else KOREAN
+        return table[action.name].format(*action.arguments)
     if verbosity == "terse":
         return TERSE[action.name].format(*action.arguments)
     sentence = _say_normal(action)

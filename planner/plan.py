@@ -273,6 +273,7 @@ def build_plan(
     ids = number_states(nodes, root)
     fact_set = frozenset(facts)
     verbosity = _fact_value(facts, "verbosity") or ""
+    language = (_fact_value(facts, "language") or "en-us").strip('"')
     out: dict[str, PlanNode] = {}
     for state, node_id in ids.items():
         node = nodes.get(state)
@@ -286,7 +287,7 @@ def build_plan(
         # sentences wait for the complete plan.
         if isinstance(action, Communication) and timings is not None:
             why = phrases.why(action, state, fact_set)
-            say = phrases.say(action, verbosity, why)
+            say = phrases.say(action, verbosity, why, language)
         out[node_id] = PlanNode(
             kind="goal" if node.goal else node.kind or "goal",
             action=action,

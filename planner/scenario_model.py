@@ -15,6 +15,7 @@ from pydantic import Field, PrivateAttr, model_validator
 
 from planner import scenario_rules
 from planner.scenario_sections import (
+    DEFAULT_LANGUAGE,
     Camera,
     Feasibility,
     Goal,
@@ -101,6 +102,9 @@ class Scenario(StrictModel):
         facts.add(f"safety({self.preferences.safety})")
         facts.add(f"initiative({self.human.initiative})")
         facts.add(f"verbosity({self.preferences.verbosity})")
+        if self.human.language != DEFAULT_LANGUAGE:
+            # Only when not the default, so English plans keep their facts and hashes.
+            facts.add(f'language("{self.human.language}")')
         return sorted(facts)
 
     def _check_reach_override(self, reach: set[tuple[str, str]]) -> None:

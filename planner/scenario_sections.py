@@ -87,9 +87,15 @@ class Robot(StrictModel):
     base_pose: Pose = [0.0, 0.0, 0.0]
 
 
+# The languages the robot can speak and hear (the speech package has the words).
+Language = Literal["en-us", "ko"]
+DEFAULT_LANGUAGE: Language = "en-us"
+
+
 class Human(StrictModel):
     name: str = "teammate"
     initiative: int = Field(default=DEFAULT_INITIATIVE, ge=0, le=3)
+    language: Language = DEFAULT_LANGUAGE
 
 
 class Camera(StrictModel):

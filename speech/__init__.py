@@ -9,7 +9,8 @@ Modules:
   gTTS (MP3) when its service answers, else espeak-ng (16 kHz WAV); cached.
 - `devices`: `play_local(utterance)` on the local speakers; `NoAudioDevice`.
 - `audio`: `Recording`, WAV reading and writing, resampling, RMS level.
-- `voice_activity`: the energy gate that tells speech from silence and noise.
+- `voice_activity`: the energy gate that tells speech from silence and noise, and
+  `EndOfSpeech`, where a live utterance ends (the microphone's cut).
 - `models`: `find_model(language)`, `load_model(dir)` (once per process).
 - `recognition`: `Recognizer.recognize(samples, rate) -> Heard` (yes / no /
   refused with a reason) and the rejection strategy in its docstring.

@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 RATE = 16_000
+BLOCK = int(0.03 * RATE)  # 30 ms: what the microphone hands over, and a recogniser is fed
 
 Samples = npt.NDArray[np.int16]
 

@@ -7,14 +7,41 @@ single line, instead of PortAudio's "Error querying device -1".
 
 from __future__ import annotations
 
+import os
 from typing import Any, Literal
 
 from speech.audio import read_wav
 from speech.synthesis import Utterance
 
+MICROPHONE_ENV = "TANDEM_MICROPHONE"
+
 
 class NoAudioDevice(RuntimeError):
     """There is no sound device of the kind needed (or PortAudio is missing)."""
+
+
+def input_devices() -> list[tuple[int, str]]:
+    """(index, name) of every device with an input channel; empty without PortAudio."""
+    try:
+        sd = sounddevice_module()
+        devices = sd.query_devices()
+    except (NoAudioDevice, Exception):  # PortAudioError: no host API at all
+        return []
+    return [(i, str(d["name"])) for i, d in enumerate(devices) if d["max_input_channels"] > 0]
+
+
+def microphone() -> int | None:
+    """The input device `$TANDEM_MICROPHONE` names (an index or part of a name), else
+    None for the system's default; `NoAudioDevice` when it names none."""
+    wanted = os.environ.get(MICROPHONE_ENV, "").strip()
+    if not wanted:
+        return None
+    devices = input_devices()
+    for index, name in devices:
+        if wanted == str(index) or wanted.lower() in name.lower():
+            return index
+    known = "; ".join(f"{i}: {n}" for i, n in devices) or "none"
+    raise NoAudioDevice(f"${MICROPHONE_ENV}={wanted} names no input device (known: {known})")
 
 
 def sounddevice_module() -> Any:
@@ -26,12 +53,12 @@ def sounddevice_module() -> Any:
     return sounddevice
 
 
-def require_device(kind: Literal["input", "output"]) -> Any:
-    """sounddevice, after checking that a default device of `kind` exists."""
+def require_device(kind: Literal["input", "output"], device: int | None = None) -> Any:
+    """sounddevice, after checking that `device` (else the default one of `kind`) exists."""
     sd = sounddevice_module()
     what = "microphone (input)" if kind == "input" else "speaker (output)"
     try:
-        info = sd.query_devices(kind=kind)
+        info = sd.query_devices(device, kind=kind)
     except sd.PortAudioError:
         raise NoAudioDevice(f"no {what} device on this machine") from None
     channels = info.get(f"max_{kind}_channels", 0) if isinstance(info, dict) else 0

@@ -1,6 +1,7 @@
 """A synthetic yes/no test set and its score, shared by the tests and the benchmark.
 
-Answers: every answer phrase spoken by seeded `SimulatedVoice`s (voice
+Answers: every answer phrase of `speech.languages.KOREAN` (12 each by default,
+72 in all) spoken by seeded `SimulatedVoice`s (voice
 variant, speed and pitch drawn per clip), half of them with white noise at
 15-25 dB SNR. Non-answers: silence, noise of several kinds and levels, and
 other Korean words and sentences, none of them in the recogniser's distractor
@@ -10,16 +11,17 @@ list (so the score is not that of a grammar that already knows the test).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from speech.audio import RATE, Recording
+from speech.languages import KOREAN
 from speech.recognition import Heard, Meaning
 from speech.sources import SimulatedVoice
 
-KOREAN_YES = ("네", "예", "응", "그래요", "좋아요")
-KOREAN_NO = ("아니요", "아니", "아니오", "싫어요", "아냐")
+KOREAN_YES = KOREAN.yes_words
+KOREAN_NO = KOREAN.no_words
 KOREAN_OTHER = (
     "안녕하세요", "다리를 잡아 주세요", "잠깐만요", "모르겠어요", "오늘 날씨가 좋네요",
     "나사를 주세요", "왼쪽으로", "다시 말해 주세요", "글쎄요", "뭐라고요",
@@ -43,6 +45,8 @@ class Score:
     others: int
     others_rejected: int
     others_accepted: int
+    # Per answer phrase: (clips, correct, rejected, wrong).
+    by_phrase: dict[str, tuple[int, int, int, int]] = field(default_factory=dict)
 
     @property
     def correct_rate(self) -> float:
@@ -74,6 +78,13 @@ class Score:
             lines.append(f"{name:<12} {n:>4} {correct:>9} {pct(refused):>9} {pct(wrong):>9}")
         return "\n".join(lines)
 
+    def phrase_table(self) -> str:
+        """Correct, rejected and wrong per answer phrase."""
+        lines = [f"{'phrase':<12} {'n':>4} {'correct':>8} {'rejected':>9} {'wrong':>6}"]
+        for phrase, (n, ok, refused, wrong) in self.by_phrase.items():
+            lines.append(f"{phrase:<12} {n:>4} {ok:>8} {refused:>9} {wrong:>6}")
+        return "\n".join(lines)
+
 
 def _noise_clips(seed: int) -> list[Trial]:
     rng = np.random.default_rng(seed)
@@ -97,7 +108,7 @@ def _noise_clips(seed: int) -> list[Trial]:
     return trials
 
 
-def korean_trials(per_phrase: int = 8, seed: int = 7) -> list[Trial]:
+def korean_trials(per_phrase: int = 12, seed: int = 7) -> list[Trial]:
     """Answers (`per_phrase` renderings of each, half noisy) and non-answers."""
     clean = SimulatedVoice("ko", seed=seed)
     noisy = [SimulatedVoice("ko", seed=seed + snr, noise_snr_db=snr) for snr in (15, 20, 25)]
@@ -119,6 +130,7 @@ def score(trials: list[Trial], recognize: Callable[[Recording], Heard]) -> tuple
     """The score, and one line per clip that was not handled right."""
     counts = {"correct": 0, "rejected": 0, "wrong": 0, "others_rejected": 0, "others_accepted": 0}
     misses: list[str] = []
+    by_phrase: dict[str, list[int]] = {}
     for trial in trials:
         heard = recognize(trial.recording)
         if trial.expected is None:
@@ -128,6 +140,10 @@ def score(trials: list[Trial], recognize: Callable[[Recording], Heard]) -> tuple
         else:
             key = "correct" if heard.meaning == trial.expected else "wrong"
         counts[key] += 1
+        if trial.expected is not None:
+            row = by_phrase.setdefault(trial.label, [0, 0, 0, 0])
+            row[0] += 1
+            row[("correct", "rejected", "wrong").index(key) + 1] += 1
         if key not in ("correct", "others_rejected"):
             misses.append(
                 f"{key:<15} {trial.recording.origin:<45} -> {' '.join(heard.words) or '-'} "
@@ -142,4 +158,5 @@ def score(trials: list[Trial], recognize: Callable[[Recording], Heard]) -> tuple
         others=len(trials) - answers,
         others_rejected=counts["others_rejected"],
         others_accepted=counts["others_accepted"],
+        by_phrase={phrase: (row[0], row[1], row[2], row[3]) for phrase, row in by_phrase.items()},
     ), misses

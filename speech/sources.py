@@ -16,15 +16,17 @@ from __future__ import annotations
 
 import random
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
-from speech.audio import RATE, Recording, as_int16, level_db, read_wav, resample, rms
-from speech.devices import require_device
+from speech.audio import BLOCK, RATE, Recording, Samples, as_int16, read_wav, resample, rms
+from speech.devices import microphone, require_device
 from speech.languages import Language, language
 from speech.synthesis import espeak_samples
+from speech.voice_activity import EndOfSpeech, LiveUtterance
 
 
 class AudioSource(Protocol):
@@ -121,48 +123,63 @@ class SimulatedVoice:
 class MicrophoneSource:
     """The default microphone, one utterance per `listen()`.
 
-    End of speech: the first 0.3 s set the noise floor; speech starts when a
-    30 ms block is `start_db` above it, and ends after `pause_s` of blocks
-    back under it. `NoAudioDevice` (one line) when there is no microphone.
+    The utterance is cut by `voice_activity.EndOfSpeech` (the noise floor of
+    the first 0.3 s, an onset `start_db` above it, then `pause_s` of quiet);
+    0.3 s before the onset are kept. The device is `$TANDEM_MICROPHONE` (an
+    index or part of a name, see `tandem listen --devices`), else the system's
+    default. `on_level`, when set, is told the RMS of every 30 ms block while
+    it listens (the dashboard's input-level meter). `NoAudioDevice` (one line)
+    when there is no microphone.
     """
 
     BLOCK_S = 0.03
 
-    def __init__(self, start_db: float = 12.0, pause_s: float = 0.7, max_s: float = 8.0) -> None:
-        self._sd = require_device("input")
+    def __init__(self, start_db: float = 12.0, pause_s: float = 0.35, max_s: float = 8.0) -> None:
+        self.device = microphone()
+        self._sd = require_device("input", self.device)
         self.start_db = start_db
         self.pause_s = pause_s
         self.max_s = max_s
         self.level = 0.0
+        self.on_level: Callable[[float], None] | None = None
 
-    def listen(self, timeout_s: float) -> Recording | None:
-        device_rate = int(self._sd.query_devices(kind="input")["default_samplerate"])
+    def _rate(self) -> int:
+        """16 kHz when the device can record it (then blocks go to the recogniser as
+        they come), else the device's own rate."""
+        try:
+            self._sd.check_input_settings(device=self.device, samplerate=RATE, channels=1)
+        except Exception:  # PortAudioError or ValueError: the rate is not supported
+            return int(self._sd.query_devices(self.device, kind="input")["default_samplerate"])
+        return RATE
+
+    def listen(
+        self, timeout_s: float, feed: Callable[[Samples], None] | None = None
+    ) -> Recording | None:
+        """The next utterance; `feed` (a `Decoding.feed`) gets its 16 kHz audio in
+        30 ms blocks, while it is spoken when the device records at 16 kHz."""
+        device_rate = self._rate()
+        live = feed if device_rate == RATE else None
         block = int(self.BLOCK_S * device_rate)
-        blocks: list[np.ndarray] = []
-        floor: float | None = None
-        started_at: int | None = None
-        quiet = 0
+        utterance = LiveUtterance(
+            EndOfSpeech(self.BLOCK_S, self.start_db, self.pause_s, self.max_s), live
+        )
         deadline = time.monotonic() + timeout_s
-        with self._sd.InputStream(samplerate=device_rate, channels=1, dtype="int16") as stream:
+        with self._sd.InputStream(
+            device=self.device, samplerate=device_rate, channels=1, dtype="int16"
+        ) as stream:
             while True:
                 data, _ = stream.read(block)
                 chunk = as_int16(data)
                 self.level = rms(chunk)
-                blocks.append(chunk)
-                loud = level_db(chunk)
-                if floor is None:
-                    if len(blocks) * self.BLOCK_S >= 0.3:
-                        floor = float(np.median([level_db(b) for b in blocks]))
-                    continue
-                if started_at is None:
-                    if loud > floor + self.start_db:
-                        started_at = max(0, len(blocks) - 10)  # keep 0.3 s before onset
-                    elif time.monotonic() > deadline:
-                        return None
-                    continue
-                quiet = quiet + 1 if loud < floor + self.start_db / 2 else 0
-                spoken = (len(blocks) - started_at) * self.BLOCK_S
-                if quiet * self.BLOCK_S >= self.pause_s or spoken >= self.max_s:
+                if self.on_level is not None:
+                    self.on_level(self.level)
+                if utterance.push(chunk):
                     break
-        samples = resample(np.concatenate(blocks[started_at:]), device_rate, RATE)
+                if not utterance.started and time.monotonic() > deadline:
+                    return None
+        samples = resample(utterance.samples(), device_rate, RATE)
+        if feed is not None and live is None:
+            # Another rate: resampled once it is all in, then decoded.
+            for start in range(0, len(samples), BLOCK):
+                feed(samples[start : start + BLOCK])
         return Recording(samples=samples, rate=RATE, origin="microphone")

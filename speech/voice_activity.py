@@ -10,12 +10,13 @@ frames is silence.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from speech.audio import Samples
+from speech.audio import Samples, level_db
 
 FRAME_S = 0.02
 
@@ -54,3 +55,93 @@ def activity(
         peak_db=float(levels.max()),
         active=active,
     )
+
+
+class EndOfSpeech:
+    """Where an utterance ends in a live stream, block by block (the microphone's cut).
+
+    The first `floor_s` set the noise floor; speech starts at a block `start_db`
+    above it and ends after `pause_s` of blocks back under half that margin (or
+    after `max_s` of speech). The pause is the price of every answer: the
+    recogniser can only start once it has passed, so it is kept short (0.35 s:
+    a yes/no answer has no pause inside; 0.7 s measured 0.8 s from the end of
+    speech to the answer, over the 0.5 s target).
+    """
+
+    def __init__(
+        self,
+        block_s: float,
+        start_db: float = 12.0,
+        pause_s: float = 0.35,
+        max_s: float = 8.0,
+        floor_s: float = 0.3,
+    ) -> None:
+        self.block_s = block_s
+        self.start_db = start_db
+        self.pause_s = pause_s
+        self.max_s = max_s
+        self.floor_s = floor_s
+        self.levels: list[float] = []
+        self.floor: float | None = None
+        self.started_at: int | None = None  # block index of the onset
+        self._quiet = 0
+
+    def feed(self, block: Samples) -> bool:
+        """Takes the next block; True once the utterance has ended."""
+        loud = level_db(block)
+        self.levels.append(loud)
+        if self.floor is None:
+            if len(self.levels) * self.block_s >= self.floor_s:
+                self.floor = float(np.median(self.levels))
+            return False
+        if self.started_at is None:
+            if loud > self.floor + self.start_db:
+                self.started_at = len(self.levels) - 1
+            return False
+        self._quiet = self._quiet + 1 if loud < self.floor + self.start_db / 2 else 0
+        spoken = (len(self.levels) - self.started_at) * self.block_s
+        return self._quiet * self.block_s >= self.pause_s or spoken >= self.max_s
+
+
+class LiveUtterance:
+    """The blocks of a live stream that make one utterance, as they arrive.
+
+    `push` each block; `EndOfSpeech` says where the utterance starts and ends,
+    and the `pre_roll_s` before the onset are kept (the recogniser needs the
+    lead-in). `feed`, when given (a recogniser's `Decoding.feed`), gets every
+    block of the utterance as soon as it is known to belong to it, so decoding
+    runs while the person speaks.
+    """
+
+    def __init__(
+        self,
+        cut: EndOfSpeech,
+        feed: Callable[[Samples], None] | None = None,
+        pre_roll_s: float = 0.3,
+    ) -> None:
+        self.cut = cut
+        self.feed = feed
+        self.pre_roll = int(round(pre_roll_s / cut.block_s))
+        self.blocks: list[Samples] = []
+
+    @property
+    def started(self) -> bool:
+        return self.cut.started_at is not None
+
+    def push(self, block: Samples) -> bool:
+        """Takes the next block; True once the utterance has ended."""
+        self.blocks.append(block)
+        was_started = self.started
+        ended = self.cut.feed(block)
+        if self.feed is not None and self.started:
+            for piece in self.blocks[self._first() :] if not was_started else [block]:
+                self.feed(piece)
+        return ended
+
+    def _first(self) -> int:
+        return max(0, (self.cut.started_at or 0) - self.pre_roll)
+
+    def samples(self) -> Samples:
+        """The utterance so far, from the pre-roll on."""
+        kept = self.blocks[self._first() :] if self.started else []
+        return np.concatenate(kept) if kept else np.zeros(0, dtype=np.int16)

@@ -42,6 +42,15 @@ def default_plan() -> Plan:
     return plan_of(SCENARIOS / "default.toml")
 
 
+# The Korean copy of the default scenario, read from this checkout (a new file is
+# not in an older installed copy of the shipped scenarios).
+KOREAN_DEFAULT = ROOT / "static" / "scenarios" / "default-ko.toml"
+
+
+def korean_plan() -> Plan:
+    return plan_of(KOREAN_DEFAULT)
+
+
 def tandem_command() -> list[str]:
     # This checkout's entry point (run from ROOT); the installed console script
     # is tested on a built wheel by tests/test_packaging.py.

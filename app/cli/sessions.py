@@ -9,7 +9,8 @@ from datetime import date
 from pathlib import Path
 
 from app.cli.exit_codes import BadInput
-from app.execution import RESULTS, ExecutionEvent
+from app.evidence_summary import camera_agreement, summary
+from app.execution import RESULTS
 from app.store import SessionStore, iso
 
 
@@ -83,45 +84,13 @@ def _show(args: argparse.Namespace) -> int:
         if event.text:
             line += f"  {event.text}"
         print(line)
-        evidence = evidence_line(event)
-        if evidence:
-            print(f"      {evidence}")
-    agree, total = agreement(events)
+        said = summary(event)
+        if said:
+            print(f"      {said}")
+    agree, total = camera_agreement(events)
     if total:
         print(f"  camera answers that agree with the simulated human: {agree}/{total}")
     return 0
-
-
-def evidence_line(event: ExecutionEvent) -> str:
-    """What decided a camera answer, and whether it agrees with what really happened."""
-    if event.evidence is None:
-        return ""
-    detail = event.evidence.detail
-    parts: list[str] = []
-    camera = detail.get("camera")
-    if isinstance(camera, dict):
-        # The camera's reason is already in the event's text.
-        parts.append(f"camera: confidence {camera.get('confidence')}, "
-                     f"{camera.get('frames')} frames, {camera.get('seconds')} s")  # fmt: skip
-    if event.evidence.jpeg is not None:
-        parts.append(f"frame {len(event.evidence.jpeg) / 1024:.1f} kB JPEG")
-    if "truth" in detail:
-        truth = detail["truth"]
-        parts.append(
-            f"truth {truth}: " + ("agrees" if truth == event.outcome else "DISAGREES")
-        )
-    return "; ".join(parts)
-
-
-def agreement(events: list[ExecutionEvent]) -> tuple[int, int]:
-    """(camera answers equal to the stored truth, camera answers with a truth)."""
-    judged = [
-        e for e in events
-        if e.source == "camera" and e.evidence is not None and "truth" in e.evidence.detail
-    ]  # fmt: skip
-    return sum(1 for e in judged if e.evidence and e.evidence.detail["truth"] == e.outcome), len(
-        judged
-    )
 
 
 def _export(args: argparse.Namespace) -> int:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 import viser
@@ -26,10 +27,14 @@ from app.dashboard.stage import (
     PlanChanged,
     Stage,
 )
-from app.execution import ExecutionEvent, Executor, Listener
+from app.execution import ExecutionEvent, Executor, Listener, Narrator
 from app.outcomes import ClickSource, FallbackSource, Offer, OutcomeSource
 from app.store import SessionStore, StoreError
-from planner.plan import Motion
+from planner.plan import Motion, Plan
+
+# Who answers and who speaks in an execution of a plan, given the clicks to fall
+# back on (the speech panel's `responses`); without one the clicks answer, silently.
+Responses = Callable[[Plan, ClickSource], tuple[OutcomeSource, Narrator | None]]
 
 FRAMES_PER_MOTION = 20  # arm poses shown per motion (the path is subsampled)
 LOG_LINES = 12
@@ -43,8 +48,10 @@ class ExecutionPanel:
         events: Events,
         store: SessionStore,
         operator: Operator,
+        responses: Responses | None = None,
     ) -> None:
         self.gui = gui
+        self.responses = responses
         self.stage = stage
         self.events = events
         self.store = store
@@ -105,13 +112,17 @@ class ExecutionPanel:
             return
         clicks = ClickSource(timeout=None, on_offer=self._offered)  # a person answers
         source: OutcomeSource = clicks
+        narrator: Narrator | None = None
+        if self.responses is not None:
+            # The voice answers the questions (falling back to the clicks) and speaks.
+            source, narrator = self.responses(plan, clicks)
         listeners: list[Listener] = []
         note = "dashboard"
         if self.camera is not None:
             # The camera answers sensing nodes; a click says what the simulated human
             # does (the camera then sees it), and answers what the camera cannot.
             camera, listeners = self.camera.for_execution(plan, clicks)
-            source = FallbackSource(camera, clicks)
+            source = FallbackSource(camera, source)
             note = f"dashboard, camera {self.camera.name}"
         try:
             # Refuse rather than run unrecorded: the session row is written first.
@@ -129,6 +140,7 @@ class ExecutionPanel:
             source,
             [self.store.recorder(self.session_id), self._on_event, *listeners],
             step_delay=float(self.speed.value),
+            narrator=narrator,
         )
         self.start_button.disabled = True
         for button in (self.pause_button, self.step_button, self.abort_button):

@@ -17,6 +17,7 @@ import numpy as np
 import viser
 
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
+from app.evidence_summary import summary
 from app.execution import RESULTS, ExecutionEvent
 from app.store import SessionRecord, SessionStore, StoreError, UnknownSession, iso
 from planner.plan import PlanFormatError
@@ -134,6 +135,7 @@ class ReviewPanel:
             f"`{e.node}` {e.action or e.kind}"
             + (f" → **{e.outcome}**" if e.outcome else "")
             + (f": {e.text}" if e.text else "")
+            + (f" ({heard})" if (heard := summary(e)) else "")
             for e in self.events[: k + 1]
         ]
         s = self.session

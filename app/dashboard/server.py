@@ -25,6 +25,7 @@ from app.dashboard.operator import Operator
 from app.dashboard.planning_job import JobStatus, PlanningJob, partial_plan
 from app.dashboard.review_panel import ReviewPanel
 from app.dashboard.scenario_folders import USER_FOLDER, RefusedName, ScenarioFolders
+from app.dashboard.speech_panel import Speak, SpeechPanel
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, PlanChanged
 from app.dashboard.tree_view import WALL_X, TreeView
 from app.store import SessionStore, StoreError, default_data_dir
@@ -52,6 +53,7 @@ class Dashboard:
         data_dir: str | None = None,
         scenario_dirs: Sequence[str | Path] = (),
         load_models: bool = True,
+        speak: Speak = "page",
     ) -> None:
         data = Path(data_dir) if data_dir is not None else default_data_dir()
         self.folders = ScenarioFolders(data / USER_FOLDER, [Path(p) for p in scenario_dirs])
@@ -83,7 +85,10 @@ class Dashboard:
             self.server.stop()
             raise
         gui = self.server.gui
-        self.execution = ExecutionPanel(gui, self, self.events, self.store, self.operator)
+        self.speech = SpeechPanel(gui, self, self.events, speak)
+        self.execution = ExecutionPanel(
+            gui, self, self.events, self.store, self.operator, self.speech.responses
+        )
         if self.store.read_only is not None:
             self.execution.refuse_executions(self.store.read_only)
         self.review = ReviewPanel(gui, self, self.events, self.store)
@@ -395,7 +400,7 @@ class Dashboard:
         if self.job is not None:
             self.job.cancel()
         self.execution.close(reason)
-        for panel in (self.review, self.camera_panel):
+        for panel in (self.review, self.camera_panel, self.speech):
             panel.close()
         self.events.clear()
         self.server.stop()

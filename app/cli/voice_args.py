@@ -1,0 +1,87 @@
+"""`tandem execute ... --responses voice:SOURCE`: the voice wired from the options.
+
+Everything the user can get wrong (no speech model, no microphone, no such
+folder, a bad script) becomes one `BadInput` line, exit code 2. Each line the
+robot says is printed as it is spoken, and each question's outcome says
+whether the voice or the fallback answered.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from app.cli.exit_codes import BadInput
+from app.narration import Line, plan_language
+from app.outcomes import RandomSource, ScriptError
+from app.voice_responses import VoiceResponses, voice_responses
+from app.voice_source import Attempt
+from planner.plan import Plan
+from speech.devices import NoAudioDevice, play_local
+from speech.languages import UnknownLanguage
+from speech.models import NoSpeechModel
+
+
+def print_line(line: Line) -> None:
+    if line.utterance is None:
+        print(f'      robot says (not spoken: {line.error}): "{line.text}"', file=sys.stderr)
+    else:
+        print(f'      robot says ({line.engine}): "{line.text}"', file=sys.stderr, flush=True)
+
+
+class LocalSpeakers:
+    """Plays each line on this machine's speakers before the robot listens (so a
+    microphone does not hear the robot); without speakers, says so once."""
+
+    def __init__(self) -> None:
+        self.failed: str | None = None
+
+    def __call__(self, line: Line) -> None:
+        print_line(line)
+        if line.utterance is None or self.failed is not None:
+            return
+        try:
+            play_local(line.utterance)
+        except (NoAudioDevice, ValueError) as error:
+            self.failed = str(error)
+            print(f"      (not played: {error})", file=sys.stderr)
+
+
+def print_attempt(attempt: Attempt) -> None:
+    verdict = attempt.meaning if attempt.accepted else f"refused: {attempt.reason}"
+    print(
+        f"      heard '{attempt.heard or '-'}' (confidence {attempt.confidence:.2f}, "
+        f"try {attempt.number}): {verdict}",
+        file=sys.stderr,
+        flush=True,
+    )
+
+
+def print_fallback(node_id: str, reason: str) -> None:
+    print(f"{node_id}: no voice answer ({reason}); a seeded choice", file=sys.stderr)
+
+
+def voice_from_args(args: argparse.Namespace, plan: Plan, seed: int | None) -> VoiceResponses:
+    spec = args.responses[len("voice:") :]
+    if not spec:
+        raise BadInput("--responses voice:SOURCE: SOURCE is sim, mic or a folder of WAV files")
+    code = args.language or plan_language(plan)
+    speak = args.speak or ("local" if spec == "mic" else "none")
+    try:
+        return voice_responses(
+            spec,
+            code,
+            RandomSource(seed),
+            seed=seed,
+            human=args.human,
+            model_dir=args.vosk_model,
+            # espeak-ng when played here: local playback takes WAV, gTTS gives MP3.
+            engine="espeak" if speak == "local" else "auto",
+            on_line=LocalSpeakers() if speak == "local" else print_line,
+            on_attempt=print_attempt,
+            on_fallback=print_fallback,
+        )
+    except (NoSpeechModel, NoAudioDevice, UnknownLanguage, ScriptError) as error:
+        raise BadInput(f"--responses {args.responses}: {error}") from error
+    except (FileNotFoundError, ValueError) as error:
+        raise BadInput(f"--responses {args.responses}: {error}") from error

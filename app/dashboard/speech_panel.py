@@ -1,0 +1,189 @@
+"""The Speech panel: the robot's voice and the answers it hears.
+
+It shows the speech engine in use, a listening indicator with the input level,
+the last words heard with their confidence and the meaning taken, and a mute
+box. Every line the robot says is sent to the page as audio (an `<audio
+autoplay>` element with a data: URI, which viser's HTML element plays), or,
+with `speak="local"`, played on the server's speakers.
+
+"Answers by" chooses who answers the questions: clicks, the simulated voice
+(a simulated human says its answer, the real recogniser hears it) or the
+microphone. The click buttons stay visible while the voice listens, and a
+click that comes first wins; a question refused twice waits for a click.
+Without a speech model for the plan's language the panel says so in one line
+and the questions stay with the clicks.
+
+The execution panel asks `responses(plan, clicks)` for its outcome source and
+narrator when an execution starts; the panel needs nothing else from it.
+"""
+
+from __future__ import annotations
+
+import base64
+import random
+import threading
+import time
+from typing import Any, Literal
+
+import viser
+
+from app.dashboard.stage import Events, ExecutionFinished, Stage
+from app.execution import Narrator
+from app.narration import Line, RobotVoice, plan_language
+from app.outcomes import ClickSource, OutcomeSource
+from app.voice_responses import VoiceResponses, voice_responses
+from app.voice_source import Attempt
+from planner.plan import Plan
+from speech.devices import NoAudioDevice, play_local
+from speech.models import NoSpeechModel
+from speech.recognition import Recognizer
+from speech.sources import MicrophoneSource
+from speech.synthesis import Engine
+
+Speak = Literal["page", "local"]
+MODES = ("clicks", "simulated voice", "microphone")
+PANEL_ORDER = 10_000.0
+LEVEL_EVERY_S = 0.1  # the input-level meter's updates (blocks arrive every 30 ms)
+
+
+def audio_html(line: Line) -> str:
+    """An autoplaying `<audio>` element carrying the line's audio as a data: URI."""
+    assert line.utterance is not None
+    mime = "audio/mpeg" if line.utterance.format == "mp3" else "audio/wav"
+    data = base64.b64encode(line.utterance.path.read_bytes()).decode("ascii")
+    return f'<audio autoplay controls src="data:{mime};base64,{data}"></audio>'
+
+
+class SpeechPanel:
+    def __init__(
+        self, gui: viser.GuiApi, stage: Stage, events: Events, speak: Speak = "page"
+    ) -> None:
+        self.gui = gui
+        self.stage = stage
+        self.speak = speak
+        self.voice: VoiceResponses | None = None
+        self.lines: list[Line] = []
+        self._recognizers: dict[str, Recognizer] = {}
+        self._loading = threading.Lock()  # apart from _lock: a load takes seconds
+        self._level_at = 0.0
+        self._lock = threading.Lock()
+        # Last on the page, below the panels that were there before it.
+        with gui.add_folder("Speech", order=PANEL_ORDER):
+            # Any: viser's types mark `.value` read-only, yet setting it updates the page.
+            self.mode: Any = gui.add_dropdown("Answers by", MODES, initial_value=MODES[0])
+            self.mute: Any = gui.add_checkbox("Mute", False)
+            self.engine = gui.add_markdown("Voice: not spoken yet.")
+            self.listening = gui.add_markdown("Not listening.")
+            self.level: Any = gui.add_progress_bar(0.0)
+            self.heard = gui.add_markdown("Nothing heard yet.")
+            self.audio = gui.add_html("")
+        events.subscribe(ExecutionFinished, lambda _: self._listening(False))
+        self.mode.on_update(lambda _: self._prepare())
+
+    def _prepare(self) -> None:
+        """Loads the speech model as soon as a voice is chosen (it takes seconds), so
+        the first question does not wait for it; says at once if there is none."""
+        plan = self.stage.current_plan()
+        if str(self.mode.value) == "clicks" or plan is None:
+            return
+        code = plan_language(plan)
+
+        def load() -> None:
+            try:
+                self._recognizer(code)
+            except NoSpeechModel as error:
+                self.heard.content = f"**No voice answers:** {error}. Answer by clicks."
+            else:
+                self.heard.content = f"Speech model for {code} ready."
+
+        threading.Thread(target=load, name="speech-model", daemon=True).start()
+
+    # -- what the execution panel asks for ------------------------------------------
+
+    def responses(self, plan: Plan, clicks: ClickSource) -> tuple[OutcomeSource, Narrator]:
+        """The outcome source and narrator of an execution of `plan` (clicks as fallback)."""
+        code = plan_language(plan)
+        mode = str(self.mode.value)
+        self.voice = None
+        if mode != "clicks":
+            try:
+                self.voice = voice_responses(
+                    "sim" if mode == "simulated voice" else "mic",
+                    code,
+                    clicks,
+                    seed=random.randrange(2**31),
+                    recognizer=self._recognizer(code),
+                    engine=self._engine,
+                    on_line=self._spoken,
+                    on_attempt=self._heard,
+                    on_listening=self._listening,
+                )
+            except (NoSpeechModel, NoAudioDevice) as error:
+                self.heard.content = f"**No voice answers:** {error}. Answer by clicks."
+        if self.voice is not None:
+            audio = self.voice.voice.audio
+            if isinstance(audio, MicrophoneSource):
+                audio.on_level = self._level  # the meter moves while a person speaks
+            return self.voice.source, self.voice.robot
+        return clicks, RobotVoice(code, self._engine, listeners=[self._spoken])
+
+    @property
+    def _engine(self) -> Engine:
+        # Local playback takes WAV (espeak-ng); gTTS's MP3 plays only in the page.
+        return "espeak" if self.speak == "local" else "auto"
+
+    def _recognizer(self, code: str) -> Recognizer:
+        # One model per language for the dashboard's life: it takes seconds to load.
+        with self._loading:
+            if code not in self._recognizers:
+                self._recognizers[code] = Recognizer(code)
+            return self._recognizers[code]
+
+    # -- callbacks from the executor's thread -----------------------------------------
+
+    def _spoken(self, line: Line) -> None:
+        with self._lock:
+            self.lines.append(line)
+        if line.utterance is None:
+            self.engine.content = f"Voice: **not spoken** ({line.error})"
+            return
+        self.engine.content = f"Voice: **{line.engine}** ({line.utterance.voice})"
+        if self.mute.value:
+            return
+        if self.speak == "local":
+            threading.Thread(target=self._play_local, args=(line,), daemon=True).start()
+        else:
+            self.audio.content = audio_html(line)
+
+    def _play_local(self, line: Line) -> None:
+        assert line.utterance is not None
+        try:
+            play_local(line.utterance)
+        except (NoAudioDevice, ValueError) as error:
+            self.engine.content = f"Voice: {line.engine}, not played here: {error}"
+
+    def _listening(self, on: bool) -> None:
+        self.listening.content = "**Listening...**" if on else "Not listening."
+        if self.voice is not None:
+            self._level(float(getattr(self.voice.voice.audio, "level", 0.0)), force=True)
+
+    def _level(self, rms: float, force: bool = False) -> None:
+        now = time.monotonic()
+        if force or now - self._level_at >= LEVEL_EVERY_S:
+            self._level_at = now
+            self.level.value = min(100.0, 400.0 * rms)  # speech RMS is ~0.05-0.25
+
+    def _heard(self, attempt: Attempt) -> None:
+        words = attempt.heard or "-"
+        if attempt.accepted:
+            verdict = f"meaning **{attempt.meaning}**"
+        else:
+            verdict = f"refused: {attempt.reason}"
+        self.heard.content = (
+            f"Heard '{words}' (confidence {attempt.confidence:.2f}, try {attempt.number}): "
+            f"{verdict}"
+        )
+
+    def close(self) -> None:
+        if self.voice is not None:
+            self.voice.source.interrupt()

@@ -1,0 +1,160 @@
+"""The Speech panel in a real browser: the page receives the robot's spoken lines as
+audio, and the questions of the Korean scenario are answered by the simulated voice."""
+
+from __future__ import annotations
+
+import base64
+import re
+import shutil
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("playwright.sync_api")
+from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
+
+from app.dashboard.server import Dashboard  # noqa: E402
+from tests.plan_fixtures import KOREAN_DEFAULT  # noqa: E402
+from tests.test_dashboard import free_port, plan_shown, shot, wait_for  # noqa: E402
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+AUDIO_SRC = re.compile(r'<audio autoplay[^>]*src="data:audio/(wav|mpeg);base64,([A-Za-z0-9+/=]+)"')
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Browser]:
+    if not Path(CHROMIUM).exists():
+        pytest.fail("chromium is missing: `make test` installs it (apt-get install chromium)")
+    with sync_playwright() as p:
+        b = p.chromium.launch(
+            executable_path=CHROMIUM,
+            args=["--no-sandbox", "--autoplay-policy=no-user-gesture-required"],
+        )
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
+    cache = str(tmp_path_factory.mktemp("cache"))
+    data = str(tmp_path_factory.mktemp("data"))
+    d = Dashboard(
+        "127.0.0.1", free_port(), str(KOREAN_DEFAULT), workers=1, cache_dir=cache,
+        data_dir=data, load_models=False,
+    )  # fmt: skip
+    yield d
+    d.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
+    page = browser.new_page(viewport={"width": 1400, "height": 1000})
+    page.goto(f"http://127.0.0.1:{dashboard.server.get_port()}")
+    wait_for(lambda: dashboard.server.get_clients())
+    page.get_by_text("Answers by", exact=True).first.wait_for()
+    yield page
+    page.close()
+
+
+def page_audio(page: Page) -> bytes | None:
+    match = AUDIO_SRC.search(page.content())
+    return base64.b64decode(match.group(2)) if match else None
+
+
+def test_executing_sends_spoken_lines_to_the_page_and_the_voice_answers(
+    page: Page, dashboard: Dashboard
+) -> None:
+    speech = dashboard.speech
+    # Choose the simulated voice in the page's dropdown.
+    page.get_by_text("Answers by", exact=True).first.locator(
+        "xpath=ancestor::*[.//input][1]"
+    ).locator("input").first.click()
+    page.get_by_role("option", name="simulated voice", exact=True).click()
+    wait_for(lambda: speech.mode.value == "simulated voice", 10)
+    page.get_by_role("button", name="Plan", exact=True).click()
+    wait_for(plan_shown(dashboard), 120)
+    dashboard.execution.speed.value = 0.0
+    wait_for(lambda: not dashboard.execution.start_button.disabled)
+    page.get_by_role("button", name="Execute plan", exact=True).click()
+    wait_for(lambda: dashboard.execution.executor is not None, 30)
+    executor = dashboard.execution.executor
+    assert executor is not None and dashboard.plan is not None
+    plan = dashboard.plan
+    received: list[bytes] = []
+    deadline = time.monotonic() + 120
+    while not executor.done and time.monotonic() < deadline:
+        audio = page_audio(page)
+        if audio is not None and (not received or received[-1] != audio):
+            received.append(audio)
+        clicks = dashboard.execution.clicks
+        offer = clicks.pending() if clicks is not None else None
+        # Only sensing is left to clicks; the questions wait for the voice.
+        if offer is not None and plan.nodes[offer.node_id].kind == "sensing":
+            try:
+                page.get_by_role("button", name=offer.words[-1], exact=True).click(timeout=3000)
+            except Exception:
+                pass  # the buttons were redrawn meanwhile: look again
+        time.sleep(0.05)
+    assert executor.result == "goal", executor.events
+    asked = [e for e in executor.events if e.kind == "communication" and e.outcome]
+    assert asked and all(e.source == "voice" for e in asked), [e.source for e in asked]
+    assert all(e.evidence is not None and "truth" in e.evidence.detail for e in asked)
+    # The page got the audio of spoken lines: each is the bytes of a line the robot said.
+    wait_for(lambda: page_audio(page) is not None, 10)
+    final = page_audio(page)
+    assert final is not None
+    received.append(final)
+    spoken = {line.utterance.path.read_bytes() for line in speech.lines if line.utterance}
+    assert received and all(audio in spoken for audio in received)
+    assert final[:4] in (b"RIFF", b"ID3\x03", b"ID3\x04") or final[:2] == b"\xff\xfb"
+    # The panel shows the engine and the last words heard with their meaning.
+    page.get_by_text("Voice:", exact=False).first.wait_for()
+    page.get_by_text("Answers by", exact=True).first.scroll_into_view_if_needed()
+    assert re.search(r"Heard '[^']+' \(confidence \d\.\d\d, try \d\): meaning", page.content())
+    shot(page, "speech-panel")
+
+
+def test_the_review_shows_what_was_heard(dashboard: Dashboard) -> None:
+    session_id = dashboard.execution.session_id
+    assert session_id is not None
+    dashboard.review.refresh()
+    label = next(k for k, v in dashboard.review._ids.items() if v == session_id)
+    dashboard.review.open(label)
+    dashboard.review.show_step(len(dashboard.review.events) - 1)
+    content = dashboard.review.summary.content
+    assert "answered by voice" in content and "the simulated human said '" in content
+
+
+def test_mute_stops_the_audio_and_a_missing_model_keeps_the_clicks(
+    dashboard: Dashboard, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from app.outcomes import ClickSource
+
+    speech = dashboard.speech
+    plan = dashboard.plan
+    assert plan is not None
+    speech.audio.content = ""
+    speech.mute.value = True
+    source, narrator = speech.responses(plan, ClickSource(timeout=0.01))
+    assert narrator is not None
+    # A request (no outcomes): the narrator speaks it; questions are the voice's to ask.
+    node_id, node = next(
+        (i, n) for i, n in plan.nodes.items() if n.kind == "communication" and not n.outcomes
+    )
+    narrator(node_id, node)
+    assert speech.audio.content == "" and speech.lines[-1].text == node.say
+    speech.mute.value = False
+    # No model for the language: one line in the panel, and the clicks answer.
+    monkeypatch.setenv("TANDEM_VOSK_MODEL", str(tmp_path))
+    speech._recognizers.clear()
+    # Choosing a voice loads the model at once, and says at once that there is none.
+    assert speech.mode.value == "simulated voice"
+    speech.heard.content = ""
+    speech._prepare()
+    wait_for(lambda: "No voice answers" in speech.heard.content, 10)
+    clicks = ClickSource(timeout=0.01)
+    source, _ = speech.responses(plan, clicks)
+    assert source is clicks
+    assert "No voice answers" in speech.heard.content and "\n" not in speech.heard.content
