@@ -5,6 +5,9 @@ STAMP := $(VENV)/.installed
 
 .PHONY: run test bench lint system
 
+# The dashboard soak in `make bench`: 5 pages for this long.
+SOAK_MINUTES ?= 10
+
 # Debian packages: chromium for the browser tests, espeak-ng as the offline
 # voice, PortAudio for the microphone and speakers. Installed once if missing.
 SYSTEM_PACKAGES := chromium espeak-ng libportaudio2
@@ -31,6 +34,7 @@ bench: $(STAMP) system
 	$(BIN)/python -m perception.bench
 	$(BIN)/python -m app.benchmark.camera_benchmark
 	$(BIN)/python -m speech.bench
+	$(BIN)/python -m app.benchmark.soak --pages 5 --minutes $(SOAK_MINUTES)
 
 lint: $(STAMP)
 	$(BIN)/ruff check planner app perception speech tests

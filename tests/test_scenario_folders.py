@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from app.dashboard import scenario_edit
-from app.dashboard.scenario_folders import RefusedName, ScenarioFolders
+from app.dashboard.scenario_folders import RefusedName, ScenarioFolders, find_recording
 from planner.resources import scenario_path
 
 SECRET = "s3cr3t-token-ABC123"
@@ -150,3 +150,26 @@ def test_scenario_errors_on_the_page_quote_no_values(tmp_path: Path) -> None:
     assert error.startswith("leaky.toml: ") and SECRET not in error
     assert str(tmp_path) not in error  # nor the server's folders
     assert os.sep not in error.split(":")[0]
+
+
+@pytest.mark.parametrize(
+    ("name", "why"),
+    [
+        ("/etc", "not a path"),
+        ("../outside", "'.' and '..'"),
+        ("~/video.avi", "not a path"),
+        ("out/secret.toml", "leads out"),
+        ("missing.avi", "no such video"),
+        ("", "give a scenario name"),
+    ],
+)
+def test_the_camera_reads_only_the_recordings_folder(
+    layout: tuple[ScenarioFolders, Path], tmp_path: Path, name: str, why: str
+) -> None:
+    _, outside = layout
+    recordings = tmp_path / "data" / "recordings"
+    (recordings / "bench-frames").mkdir(parents=True)
+    (recordings / "out").symlink_to(outside, target_is_directory=True)
+    with pytest.raises(RefusedName, match=why):
+        find_recording(recordings, name)
+    assert find_recording(recordings, "bench-frames") == recordings / "bench-frames"

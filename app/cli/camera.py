@@ -25,16 +25,33 @@ def register(parser: argparse.ArgumentParser) -> None:
         "calibrate", help="intrinsics from views of a chessboard, as JSON",
         description="intrinsics from views of a chessboard, as JSON",
     )  # fmt: skip
-    calibrate.add_argument("source", metavar="SOURCE",
-                           help="webcam[:INDEX], /dev/videoN, a video file or an image folder")
-    calibrate.add_argument("--board", default=DEFAULT_BOARD, metavar="COLSxROWS",
-                           help=f"inner corners of the board (default {DEFAULT_BOARD})")
-    calibrate.add_argument("--square", type=float, default=DEFAULT_SQUARE_M, metavar="M",
-                           help=f"side of a printed square, metres (default {DEFAULT_SQUARE_M})")
-    calibrate.add_argument("--frames", type=int, default=600,
-                           help="read at most this many frames (default 600)")
-    calibrate.add_argument("--views", type=int, default=25,
-                           help="calibrate with at most this many distinct views (default 25)")
+    calibrate.add_argument(
+        "source",
+        metavar="SOURCE",
+        help="webcam[:INDEX], /dev/videoN, a video file or an image folder",
+    )
+    calibrate.add_argument(
+        "--board",
+        default=DEFAULT_BOARD,
+        metavar="COLSxROWS",
+        help=f"inner corners of the board (default {DEFAULT_BOARD})",
+    )
+    calibrate.add_argument(
+        "--square",
+        type=float,
+        default=DEFAULT_SQUARE_M,
+        metavar="M",
+        help=f"side of a printed square, metres (default {DEFAULT_SQUARE_M})",
+    )
+    calibrate.add_argument(
+        "--frames", type=int, default=600, help="read at most this many frames (default 600)"
+    )
+    calibrate.add_argument(
+        "--views",
+        type=int,
+        default=25,
+        help="calibrate with at most this many distinct views (default 25)",
+    )
     calibrate.add_argument("-o", "--output", required=True, metavar="calib.json")
     calibrate.set_defaults(usage_of=calibrate, run=_calibrate)
 

@@ -30,8 +30,11 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", required=True, help="the bench and its parts")
     parser.add_argument("--frames", type=int, help="stop after N frames (sim: default 30)")
     parser.add_argument("--json", action="store_true", help="one JSON object a change")
-    parser.add_argument("--calibration", metavar="FILE",
-                        help="intrinsics from `tandem camera calibrate` (default: 60 deg)")
+    parser.add_argument(
+        "--calibration",
+        metavar="FILE",
+        help="intrinsics from `tandem camera calibrate` (default: 60 deg)",
+    )
     parser.set_defaults(run=run)
 
 
@@ -45,8 +48,7 @@ def placement_json(part_id: str, estimate: Any, frame: int, seconds: float) -> d
         "region": p.region,
         "attached_to": p.attached_to,
         "slot": p.slot,
-        "position": None if estimate.position is None
-        else [round(v, 3) for v in estimate.position],
+        "position": None if estimate.position is None else [round(v, 3) for v in estimate.position],
         "confidence": round(estimate.confidence, 3),
     }
 
@@ -108,8 +110,10 @@ def run(args: argparse.Namespace) -> int:
     median = statistics.median(times)
     pose = perception.observer.camera
     # Where the reference codes put the camera: a check of its placement and intrinsics.
-    where = "not located (no reference code seen)" if pose is None else (
-        "at x {:.3f} y {:.3f} z {:.3f} m".format(*pose.position)
+    where = (
+        "not located (no reference code seen)"
+        if pose is None
+        else ("at x {:.3f} y {:.3f} z {:.3f} m".format(*pose.position))
     )
     print(
         f"{len(times)} frames, {codes} codes in the last, {median * 1e3:.1f} ms a frame "

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -21,7 +22,9 @@ import viser
 
 from app.camera_input import open_camera
 from app.camera_source import where_words
-from app.dashboard.stage import CameraChanged, Events, PlanChanged, Stage
+from app.dashboard.operator import Operator
+from app.dashboard.scenario_folders import RefusedName, find_recording
+from app.dashboard.stage import CameraChanged, Events, ScenarioChanged, Stage
 from app.live_camera import LiveCamera, LiveView
 from app.simulated_human import StillSimulatedCamera
 from perception.annotate import annotate
@@ -42,7 +45,17 @@ def source_spec(kind: str, where: str) -> str:
 
 
 class CameraPanel:
-    def __init__(self, gui: viser.GuiApi, stage: Stage, events: Events) -> None:
+    """`recordings`: the only folder whose videos and image folders a page may name."""
+
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        stage: Stage,
+        events: Events,
+        operator: Operator,
+        recordings: Path,
+    ) -> None:
+        self.recordings = recordings
         self.stage = stage
         self.events = events
         self.live: LiveCamera | None = None
@@ -51,12 +64,17 @@ class CameraPanel:
         self._lock = threading.Lock()
         with gui.add_folder("Live camera", expand_by_default=False):
             self.kind: Any = gui.add_dropdown("Source", SOURCES, initial_value="simulated")
-            self.where: Any = gui.add_text("Webcam index or path", "0")
+            self.where: Any = gui.add_text("Webcam index, or name in recordings", "0")
             # Start again to switch sources: it stops the running one first.
+            # During an execution only its operator may change what answers it.
             self.start_button = gui.add_button("Start camera")
-            self.start_button.on_click(lambda _: self.start())
+            self.start_button.on_click(operator.only("start the camera", lambda _: self.start()))
             self.stop_button = gui.add_button("Stop camera", disabled=True)
-            self.stop_button.on_click(lambda _: self.stop("Camera stopped: clicks answer."))
+            self.stop_button.on_click(
+                operator.only(
+                    "stop the camera", lambda _: self.stop("Camera stopped: clicks answer.")
+                )
+            )
             self.status = gui.add_markdown("No camera: clicks answer.")
             self.view = gui.add_image(
                 np.zeros((VIEW_WIDTH * 3 // 4, VIEW_WIDTH, 3), np.uint8), format="jpeg",
@@ -64,12 +82,12 @@ class CameraPanel:
             )  # fmt: skip
             self.rate = gui.add_markdown("")
             self.beliefs = gui.add_markdown("")
-        events.subscribe(PlanChanged, self._plan_changed)
+        events.subscribe(ScenarioChanged, self._scenario_changed)
 
-    def _plan_changed(self, message: PlanChanged) -> None:
-        # A new scenario has other parts and another bench: the running camera's
+    def _scenario_changed(self, _: ScenarioChanged) -> None:
+        # Another scenario has other parts and another bench: the running camera's
         # layout no longer fits it.
-        if message.plan is None and self.live is not None:
+        if self.live is not None:
             self.stop("Scenario changed: start the camera again.")
 
     def start(self) -> None:
@@ -80,7 +98,12 @@ class CameraPanel:
         self.stop(None)
         spec = source_spec(str(self.kind.value), str(self.where.value))
         try:
+            if str(self.kind.value) not in ("simulated", "webcam"):
+                spec = str(find_recording(self.recordings, spec))
             camera = open_camera(spec, scenario)
+        except RefusedName as err:
+            self.status.content = f"**Refused:** {err}; clicks answer."
+            return
         except SourceError as err:
             self.status.content = f"**Camera missing:** {err}; clicks answer."
             self.events.publish(CameraChanged(None))
@@ -132,8 +155,10 @@ class CameraPanel:
         small = cv2.resize(annotated, (VIEW_WIDTH, round(h * VIEW_WIDTH / w)),
                            interpolation=cv2.INTER_AREA)  # fmt: skip
         self.view.image = cv2.cvtColor(small, cv2.COLOR_BGR2RGB)
-        located = "located" if observation.camera_fresh else (
-            "pose kept from an earlier frame" if observation.camera else "not located"
+        located = (
+            "located"
+            if observation.camera_fresh
+            else ("pose kept from an earlier frame" if observation.camera else "not located")
         )
         self.rate.content = (
             f"{view.fps:.0f} fps, latency {view.seconds * 1e3:.1f} ms (frame in, estimate out), "

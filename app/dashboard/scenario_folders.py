@@ -21,6 +21,7 @@ from pathlib import Path, PurePosixPath
 from planner.resources import scenario_dir
 
 USER_FOLDER = "scenarios"  # inside the data directory
+RECORDINGS_FOLDER = "recordings"  # inside the data directory: videos and image folders
 MAX_NAME_CHARS = 200  # a whole relative name; file systems allow 255 bytes per part
 SUFFIX = ".toml"
 
@@ -109,8 +110,23 @@ class ScenarioFolders:
         return out
 
 
-def _relative_parts(name: str) -> tuple[str, ...]:
-    """The parts of a relative scenario name, or `RefusedName` saying what is wrong."""
+def find_recording(root: Path, name: str) -> Path:
+    """A video file or image folder the page named, inside `root` only; `RefusedName`.
+
+    The camera panel may read what is there and show it, so a page must not
+    name anything else on the server.
+    """
+    parts = _relative_parts(name, suffix=None)
+    candidate = root.joinpath(*parts)
+    if not candidate.resolve().is_relative_to(root.resolve()):
+        raise RefusedName(f"{name}: leads out of the recordings folder")
+    if not candidate.exists():
+        raise RefusedName(f"{name}: no such video or image folder in the recordings folder")
+    return candidate
+
+
+def _relative_parts(name: str, suffix: str | None = SUFFIX) -> tuple[str, ...]:
+    """The parts of a relative name (ending in `suffix` unless None), or `RefusedName`."""
     if not name.strip():
         raise RefusedName("give a scenario name, e.g. default.toml")
     shown = name if len(name) <= 60 else name[:57] + "..."
@@ -129,6 +145,6 @@ def _relative_parts(name: str) -> tuple[str, ...]:
         raise RefusedName(f"{shown}: empty folder name")
     if any(part.startswith(".") for part in path.parts):
         raise RefusedName(f"{shown}: hidden files are not scenarios")
-    if path.suffix != SUFFIX:
-        raise RefusedName(f"{shown}: a scenario file name ends in {SUFFIX}")
+    if suffix is not None and path.suffix != suffix:
+        raise RefusedName(f"{shown}: a scenario file name ends in {suffix}")
     return path.parts

@@ -24,9 +24,20 @@ from app.dashboard.node_details import details_markdown, stats_html
 from app.dashboard.operator import Operator
 from app.dashboard.planning_job import JobStatus, PlanningJob, partial_plan
 from app.dashboard.review_panel import ReviewPanel
-from app.dashboard.scenario_folders import USER_FOLDER, RefusedName, ScenarioFolders
+from app.dashboard.scenario_folders import (
+    RECORDINGS_FOLDER,
+    USER_FOLDER,
+    RefusedName,
+    ScenarioFolders,
+)
 from app.dashboard.speech_panel import Speak, SpeechPanel
-from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, PlanChanged
+from app.dashboard.stage import (
+    Events,
+    ExecutionFinished,
+    ExecutionStarted,
+    PlanChanged,
+    ScenarioChanged,
+)
 from app.dashboard.tree_view import WALL_X, TreeView
 from app.store import SessionStore, StoreError, default_data_dir
 from planner.plan import Plan, PlanNode
@@ -94,7 +105,9 @@ class Dashboard:
         self.review = ReviewPanel(gui, self, self.events, self.store)
         self.events.subscribe(ExecutionStarted, lambda _: self._lock_scenario(True))
         self.events.subscribe(ExecutionFinished, lambda _: self._lock_scenario(False))
-        self.camera_panel = CameraPanel(gui, self, self.events)
+        self.camera_panel = CameraPanel(
+            gui, self, self.events, self.operator, data / RECORDINGS_FOLDER
+        )
         self.bench = BenchScene(self.server, load_models=load_models)
         self.tree = TreeView(self.server, self.select)
         self.current_arms: dict[str, list[float]] = {}
@@ -208,6 +221,7 @@ class Dashboard:
         self._rebuild_part_inputs()
         self.plan = None
         self.events.publish(PlanChanged(None))
+        self.events.publish(ScenarioChanged(scenario))
         self.status.content = f"Scenario **{scenario.name}** ({len(scenario.parts)} parts)."
 
     def _rebuild_part_inputs(self) -> None:
@@ -246,6 +260,10 @@ class Dashboard:
         self.error.content = ""
         self.loaded = changed
         self.bench.load(changed.scenario)
+        # The shown plan was made for the scenario before the edit: not to be executed.
+        self.plan = None
+        self.events.publish(PlanChanged(None))
+        self.events.publish(ScenarioChanged(changed.scenario))
         self.status.content = "Scenario changed: plan again."
 
     def _save(self) -> None:

@@ -66,9 +66,18 @@ class Stage(Protocol):
 
 @dataclass(frozen=True)
 class PlanChanged:
-    """A plan was shown (`plan`), or the shown one was dropped (None: scenario changed)."""
+    """A plan was shown (`plan`), or the shown one was dropped (None: the scenario
+    changed, or planning started again)."""
 
     plan: Plan | None
+
+
+@dataclass(frozen=True)
+class ScenarioChanged:
+    """Another scenario was opened, or the open one was edited: other parts, another
+    bench (`scenario`)."""
+
+    scenario: Scenario
 
 
 @dataclass(frozen=True)
@@ -107,8 +116,10 @@ class CameraChanged:
     camera: CameraAnswers | None
 
 
-Message = PlanChanged | ExecutionStarted | ExecutionFinished | CameraChanged
-M = TypeVar("M", PlanChanged, ExecutionStarted, ExecutionFinished, CameraChanged)
+Message = PlanChanged | ScenarioChanged | ExecutionStarted | ExecutionFinished | CameraChanged
+M = TypeVar(
+    "M", PlanChanged, ScenarioChanged, ExecutionStarted, ExecutionFinished, CameraChanged
+)
 
 
 class Events:
