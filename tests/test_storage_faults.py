@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
+import socket
 import sqlite3
 import subprocess
 import tempfile
@@ -138,3 +140,28 @@ def test_a_write_failing_mid_session_stops_it_and_keeps_what_was_committed(
     store.db.conn.execute("PRAGMA query_only = OFF")
     assert [e.seq for e in store.events(sid)] == [0, 1, 2]
     store.close()
+
+
+def test_the_dashboard_opens_a_read_only_database_for_review_only(with_session: Path) -> None:
+    db = with_session / DB_NAME
+    with sqlite3.connect(db) as conn:
+        conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    for p in (db, with_session):
+        p.chmod(0o555 if p.is_dir() else 0o444)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = {**os.environ, "TANDEM_DATA_DIR": str(with_session)}
+    process = subprocess.Popen(
+        unprivileged([*tandem_command(), "dashboard", "--port", str(port)]),
+        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert process.stderr is not None
+        line = process.stderr.readline()
+        assert line.startswith("review only: ") and "not writable" in line, line
+        assert process.poll() is None  # it serves the page for review
+    finally:
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=30)
+    assert process.returncode == 0 and "Traceback" not in err
