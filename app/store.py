@@ -30,6 +30,7 @@ from sqlite_utils.db import Table
 from app.execution import INTERRUPTED, ExecutionEvent
 from app.outcomes import Evidence
 from app.processes import boot_id, owner_alive
+from app.session_db import StoreError, open_database, unusable
 from planner.plan import Plan
 
 # Stored plans whose hash is remembered, so the same plan object is not
@@ -39,21 +40,6 @@ _KNOWN_PLANS = 8
 
 DB_NAME = "sessions.db"
 EXPORT_FORMAT = "tandem-session/1"
-
-
-class StoreError(Exception):
-    """The session database cannot be used (or written); `str()` is one line naming
-    the file and what to do."""
-
-
-def _readonly(err: sqlite3.Error) -> bool:
-    return "readonly" in str(err) or "read-only" in str(err)
-
-
-def _unusable(path: Path, err: sqlite3.Error) -> StoreError:
-    return StoreError(
-        f"{path}: not a usable session database ({err}); move it away or choose another --data-dir"
-    )
 
 
 class UnknownSession(KeyError):
@@ -147,58 +133,10 @@ class SessionStore:
         self.db_path = self.data_dir / DB_NAME
         self._lock = threading.RLock()
         self._plans: dict[int, tuple[Plan, str]] = {}
-        self.read_only: str | None = "opened for reading only" if read_only else None
         self.interrupted: list[int] = []
-        if not read_only:
-            try:
-                self.data_dir.mkdir(parents=True, exist_ok=True)
-                self.db = Database(self._connect(""))
-                with self._lock:
-                    self.db.execute("PRAGMA journal_mode=WAL")
-                    # In WAL mode NORMAL still keeps every commit across a killed process.
-                    self.db.execute("PRAGMA synchronous=NORMAL")
-                    self._create()
-                    # SQLite opens a file it may not write read-only without a word:
-                    # write once and roll back, so that shows now, not mid-session.
-                    self.db.execute("BEGIN IMMEDIATE")
-                    try:
-                        self.db.execute("insert into plans (hash, doc) values ('', '')")
-                    finally:
-                        self.db.execute("ROLLBACK")
-                    self.interrupted = self.mark_interrupted()
-                return
-            except OSError as err:
-                if not self.db_path.is_file():
-                    raise StoreError(
-                        f"{self.data_dir}: cannot create the data folder ({err.strerror}); "
-                        "choose another with --data-dir or TANDEM_DATA_DIR"
-                    ) from None
-                self.read_only = f"{self.data_dir}: not writable ({err.strerror})"
-            except sqlite3.DatabaseError as err:
-                if not _readonly(err):
-                    raise _unusable(self.db_path, err) from None
-                self.db.conn.close()
-                self.read_only = f"{self.db_path}: not writable ({err})"
-        if not self.db_path.is_file():
-            raise StoreError(f"{self.db_path}: no session database here; check --data-dir")
-        failure: sqlite3.DatabaseError | None = None
-        # mode=ro sees what a running writer has committed; a read-only folder
-        # cannot hold WAL's shared-memory file, so then the file is read as it is.
-        for query in ("?mode=ro", "?mode=ro&immutable=1"):
-            try:
-                self.db = Database(self._connect(query))
-                self.db.execute("select count(*) from sessions").fetchone()
-                return
-            except sqlite3.DatabaseError as err:
-                failure = err
-        assert failure is not None
-        raise _unusable(self.db_path, failure) from None
-
-    def _connect(self, query: str) -> sqlite3.Connection:
-        return sqlite3.connect(
-            f"{self.db_path.absolute().as_uri()}{query}",
-            uri=True, check_same_thread=False, timeout=30,
-        )  # fmt: skip
+        self.db, self.read_only = open_database(self.db_path, self._create, read_only=read_only)
+        if self.read_only is None:
+            self.interrupted = self.mark_interrupted()
 
     @contextmanager
     def _reading(self) -> Iterator[None]:
@@ -207,7 +145,7 @@ class SessionStore:
             with self._lock:
                 yield
         except sqlite3.DatabaseError as err:
-            raise _unusable(self.db_path, err) from None
+            raise unusable(self.db_path, err) from None
 
     @contextmanager
     def _writing(self) -> Iterator[None]:
@@ -233,11 +171,12 @@ class SessionStore:
         self.close()
 
     def _table(self, name: str) -> Table:
-        return Table(self.db, name)
+        return _table(self.db, name)
 
-    def _create(self) -> None:
-        self._table("plans").create({"hash": str, "doc": str}, pk="hash", if_not_exists=True)
-        self._table("sessions").create(
+    @staticmethod
+    def _create(db: Database) -> None:
+        _table(db, "plans").create({"hash": str, "doc": str}, pk="hash", if_not_exists=True)
+        _table(db, "sessions").create(
             {
                 "id": int,
                 "scenario": str,
@@ -254,7 +193,7 @@ class SessionStore:
             foreign_keys=[("plan_hash", "plans", "hash")],
             if_not_exists=True,
         )
-        self._table("events").create(
+        _table(db, "events").create(
             {
                 "session_id": int,
                 "seq": int,
@@ -271,13 +210,13 @@ class SessionStore:
             foreign_keys=[("session_id", "sessions", "id")],
             if_not_exists=True,
         )
-        self._table("evidence").create(
+        _table(db, "evidence").create(
             {"session_id": int, "seq": int, "detail": str, "jpeg": bytes},
             pk=("session_id", "seq"),
             foreign_keys=[("session_id", "sessions", "id")],
             if_not_exists=True,
         )
-        self._table("sessions").create_index(["started"], if_not_exists=True)
+        _table(db, "sessions").create_index(["started"], if_not_exists=True)
 
     # -- writing ----------------------------------------------------------------
 
@@ -506,6 +445,10 @@ class SessionStore:
             "events": events,
             "plan": self.plan_doc(record.plan_hash),
         }
+
+
+def _table(db: Database, name: str) -> Table:
+    return Table(db, name)
 
 
 def _record(row: dict[str, Any]) -> SessionRecord:

@@ -21,7 +21,8 @@ import pytest
 
 from app.execution import Executor
 from app.outcomes import ExpectedSource
-from app.store import DB_NAME, SessionStore, StoreError
+from app.session_db import StoreError
+from app.store import DB_NAME, SessionStore
 from tests.plan_fixtures import ROOT, default_plan, tandem_command
 
 

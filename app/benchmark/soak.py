@@ -80,56 +80,62 @@ def main(argv: Sequence[str] | None = None) -> int:
     t0 = time.monotonic()
     end = t0 + 60 * args.minutes
     chromium = shutil.which("chromium") or "/usr/bin/chromium"
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
-        pages: list[Page] = []
-        for _ in range(args.pages):
-            page = browser.new_page(viewport={"width": 1400, "height": 900})
-            page.on("pageerror", lambda err: page_errors.append(str(err)))
-            page.goto(f"http://127.0.0.1:{port}")
-            page.get_by_role("button", name="Plan", exact=True).wait_for(timeout=120_000)
-            pages.append(page)
-        # Steps keep the default 0.5 s: the pace at which a person would watch.
-        while time.monotonic() < end:
-            operator = pages[executions % len(pages)]
-            operator.get_by_role("button", name="Plan", exact=True).click()
-            execute = operator.get_by_role("button", name="Execute plan", exact=True)
-            execute.wait_for()
-            deadline = time.monotonic() + 120
-            while not execute.is_enabled() and time.monotonic() < deadline:
-                time.sleep(0.1)
-            execute.click()
-            executions += 1
-            print(f"\rexecution {executions}", end="", file=sys.stderr, flush=True)
-            # The log's last line names the session (ids count the executions).
-            finished = operator.get_by_text(f"Session {executions}: ", exact=False)
-            stuck = time.monotonic() + 300
-            while finished.count() == 0 and time.monotonic() < stuck:
-                buttons = operator.get_by_role("button", name=ANSWER)
-                if buttons.count() == 0:
-                    time.sleep(0.05)
-                    continue
-                clicked = buttons.last
-                words = clicked.inner_text()
-                t = time.perf_counter()
-                try:
-                    clicked.click(timeout=2_000)
-                except PageError:
-                    continue  # answered meanwhile (it vanished): look again
-                # Answered: the server removes the question's buttons on every page.
-                gone = operator.get_by_role("button", name=words, exact=True)
-                while gone.count() > 0 and time.perf_counter() - t < 10:
-                    time.sleep(0.01)
-                answer_s.append(time.perf_counter() - t)
-            if finished.count() == 0:
-                page_errors.append(f"execution {executions} did not end within 5 minutes")
-                break
-            if rss_first is None and time.monotonic() - t0 > 60:
-                rss_first = rss_mb(server.pid)
-        rss_end = rss_mb(server.pid)
-        browser.close()
-    server.send_signal(signal.SIGTERM)
-    server.wait(60)
+    rss_end = float("nan")
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+            pages: list[Page] = []
+            for _ in range(args.pages):
+                page = browser.new_page(viewport={"width": 1400, "height": 900})
+                page.on("pageerror", lambda err: page_errors.append(str(err)))
+                page.goto(f"http://127.0.0.1:{port}")
+                # Generous: on a loaded 2-core machine a page with the robot's meshes
+                # and software WebGL can take minutes to come up.
+                page.get_by_role("button", name="Plan", exact=True).wait_for(timeout=600_000)
+                pages.append(page)
+            # Steps keep the default 0.5 s: the pace at which a person would watch.
+            while time.monotonic() < end:
+                operator = pages[executions % len(pages)]
+                operator.get_by_role("button", name="Plan", exact=True).click()
+                execute = operator.get_by_role("button", name="Execute plan", exact=True)
+                execute.wait_for()
+                deadline = time.monotonic() + 120
+                while not execute.is_enabled() and time.monotonic() < deadline:
+                    time.sleep(0.1)
+                execute.click()
+                executions += 1
+                print(f"\rexecution {executions}", end="", file=sys.stderr, flush=True)
+                # The log's last line names the session (ids count the executions).
+                finished = operator.get_by_text(f"Session {executions}: ", exact=False)
+                stuck = time.monotonic() + 300
+                while finished.count() == 0 and time.monotonic() < stuck:
+                    buttons = operator.get_by_role("button", name=ANSWER)
+                    if buttons.count() == 0:
+                        time.sleep(0.05)
+                        continue
+                    clicked = buttons.last
+                    words = clicked.inner_text()
+                    t = time.perf_counter()
+                    try:
+                        clicked.click(timeout=2_000)
+                    except PageError:
+                        continue  # answered meanwhile (it vanished): look again
+                    # Answered: the server removes the question's buttons on every page.
+                    gone = operator.get_by_role("button", name=words, exact=True)
+                    while gone.count() > 0 and time.perf_counter() - t < 10:
+                        time.sleep(0.01)
+                    answer_s.append(time.perf_counter() - t)
+                if finished.count() == 0:
+                    page_errors.append(f"execution {executions} did not end within 5 minutes")
+                    break
+                if rss_first is None and time.monotonic() - t0 > 60:
+                    rss_first = rss_mb(server.pid)
+            rss_end = rss_mb(server.pid)
+            browser.close()
+    finally:
+        # Also when a page fails: never leave the server running.
+        server.send_signal(signal.SIGTERM)
+        server.wait(60)
     with SessionStore(data, read_only=True) as store:
         sessions = store.list_sessions()
     shutil.rmtree(data, ignore_errors=True)

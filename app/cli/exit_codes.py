@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 
 from app.outcomes import ScriptError
-from app.store import StoreError, UnknownSession
+from app.session_db import StoreError
+from app.store import UnknownSession
 from planner.hcp import DeadEnd
 from planner.scenario import ScenarioError
 

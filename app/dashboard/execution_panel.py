@@ -29,7 +29,8 @@ from app.dashboard.stage import (
 )
 from app.execution import ExecutionEvent, Executor, Listener, Narrator
 from app.outcomes import ClickSource, FallbackSource, Offer, OutcomeSource
-from app.store import SessionStore, StoreError
+from app.session_db import StoreError
+from app.store import SessionStore
 from planner.plan import Motion, Plan
 
 # Who answers and who speaks in an execution of a plan, given the clicks to fall

@@ -19,7 +19,8 @@ import viser
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
 from app.evidence_summary import summary
 from app.execution import RESULTS, ExecutionEvent
-from app.store import SessionRecord, SessionStore, StoreError, UnknownSession, iso
+from app.session_db import StoreError
+from app.store import SessionRecord, SessionStore, UnknownSession, iso
 from planner.plan import PlanFormatError
 
 ANY = "any"

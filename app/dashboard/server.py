@@ -39,7 +39,8 @@ from app.dashboard.stage import (
     ScenarioChanged,
 )
 from app.dashboard.tree_view import WALL_X, TreeView
-from app.store import SessionStore, StoreError, default_data_dir
+from app.session_db import StoreError
+from app.store import SessionStore, default_data_dir
 from planner.plan import Plan, PlanNode
 from planner.scenario_model import Scenario
 
