@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from app.outcomes import Evidence, Outcome, OutcomeError, OutcomeSource, describe
+from app.repair import REPAIR, Repair, RepairFailed
+from app.surprises import Surprise, SurpriseError
 from planner.plan import Motion, Plan, PlanNode
 
 Result = Literal["goal", "aborted", "interrupted", "dead-end"]
@@ -54,9 +56,12 @@ class ExecutionEvent:
     text: str | None = None
     motion: Motion | None = field(default=None, compare=False, repr=False)
     evidence: Evidence | None = field(default=None, compare=False, repr=False)
+    plan: Plan | None = field(default=None, compare=False, repr=False)  # a repair's new plan
 
 
 Listener = Callable[[ExecutionEvent], None]
+# Plans again after a surprise at a node: the repair, and the new plan's hash.
+Repairing = Callable[[PlanNode, Surprise], tuple[Repair, str]]
 # Speaks a communication node's sentence; what it returns is kept with the event.
 Narrator = Callable[[str, PlanNode], Evidence | None]
 
@@ -88,9 +93,11 @@ class Executor:
         step_delay: float = 0.0,
         max_steps: int = 10_000,
         narrator: Narrator | None = None,
+        repairing: Repairing | None = None,
     ) -> None:
         self.plan = plan
         self.narrator = narrator
+        self.repairing = repairing
         self.nodes = plan.nodes
         self.source = source
         self.listeners = list(listeners)
@@ -228,6 +235,11 @@ class Executor:
                     outcome = self._ask(node_id, node, options)
                 except _Aborted:
                     return "aborted"
+                if outcome.surprise is not None:
+                    repaired = self._repair(node_id, node, outcome)
+                    if repaired is not None:
+                        node_id = repaired
+                    continue  # on the new plan's root, or the same node asked again
                 text = node.say if node.kind == "communication" else outcome.text
                 self._emit(
                     node_id,
@@ -283,11 +295,44 @@ class Executor:
                 # No answer yet (a click timed out): ask again, unless aborted.
                 time.sleep(0.01)
                 continue
+            if outcome.surprise is not None:
+                return outcome
             if outcome.label not in options:
                 raise OutcomeError(
                     f"'{outcome.label}' is not an outcome of {node.action} at {node_id}"
                 )
             return outcome
+
+    def _repair(self, node_id: str, node: PlanNode, outcome: Outcome) -> str | None:
+        """Plans again from what was observed and switches to that plan; its root, or
+        None (no repair possible: the node is asked again)."""
+        surprise = outcome.surprise
+        assert surprise is not None
+        try:
+            if self.repairing is None:
+                raise RepairFailed("this execution cannot plan again")
+            repair, digest = self.repairing(node, surprise)
+        except (RepairFailed, SurpriseError) as err:
+            self._emit(node_id, node, source=outcome.source, text=f"surprise ignored: {err}")
+            return None
+        detail = {
+            "surprise": str(surprise),
+            "observed": sorted(repair.observed),
+            "plan": digest,
+            "plan_s": round(repair.seconds, 3),
+        }
+        event = ExecutionEvent(
+            seq=len(self.events), time=time.time(), node=node_id,
+            action=None if node.action is None else str(node.action), kind=REPAIR,
+            source=outcome.source, text=repair.words, evidence=Evidence(detail),
+            plan=repair.plan,
+        )  # fmt: skip
+        self.events.append(event)
+        for listener in self.listeners:
+            listener(event)
+        self.plan = repair.plan
+        self.nodes = repair.plan.nodes
+        return repair.plan.root
 
     def _emit_stop(self, node_id: str, reason: str) -> None:
         """The last event of an interrupted walk: where it stood, and why it stopped."""

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any, Protocol
 
+from app.surprises import Surprise, SurpriseError, parse_surprise
 from planner.plan import PlanNode
 from planner.vocabulary import (
     QUESTIONS,
@@ -53,6 +54,7 @@ class Outcome:
     confidence: float | None = None
     text: str = ""
     evidence: Evidence | None = None
+    surprise: Surprise | None = None  # what happened fits no outcome: plan again
 
 
 class OutcomeSource(Protocol):
@@ -138,6 +140,8 @@ class ScriptLine:
 class ScriptedSource:
     """Outcome labels read from a text file, one a line, `#` starting a comment.
 
+    A line `!attach leg2 top c2` is a surprise (app.surprises): what the human
+    did instead of any outcome, which makes the executor repair the plan.
     Each nondeterministic node takes the next line. When the lines run out
     the source has no answer (None); a label that is not an outcome of the
     node raises `ScriptError` naming the file and the line.
@@ -152,13 +156,19 @@ class ScriptedSource:
         except (OSError, UnicodeDecodeError) as err:
             raise ScriptError(f"{self.path}: cannot read responses: {err}") from err
         self.lines = parse_script(text)
+        for line in self.lines:
+            if line.label.startswith("!"):
+                try:
+                    parse_surprise(line.label[1:])
+                except SurpriseError as err:
+                    raise ScriptError(f"{self.path}:{line.number}: {err}") from None
         self._next = 0
         self._lock = threading.Lock()
 
     def check_labels(self, known: set[str]) -> None:
         """Raises `ScriptError` for the first line whose label no node of the plan has."""
         for line in self.lines:
-            if line.label not in known:
+            if line.label not in known and not line.label.startswith("!"):
                 raise ScriptError(
                     f"{self.path}:{line.number}: '{line.label}' is not an outcome in this plan "
                     f"(known: {', '.join(sorted(known))})"
@@ -175,6 +185,9 @@ class ScriptedSource:
                 return None
             line = self.lines[self._next]
             self._next += 1
+        if line.label.startswith("!"):
+            surprise = parse_surprise(line.label[1:])
+            return Outcome("", self.name, 1.0, str(surprise), surprise=surprise)
         if line.label not in options:
             raise ScriptError(
                 f"{self.path}:{line.number}: '{line.label}' is not an outcome of "
@@ -363,8 +376,8 @@ class FallbackSource:
         except Exception as err:  # any failure of the primary falls back
             reason = str(err) or type(err).__name__
         else:
-            if outcome is not None and outcome.label in options:
-                return outcome
+            if outcome is not None and (outcome.label in options or outcome.surprise):
+                return outcome  # a surprise goes to the executor, which plans again
             reason = (
                 "no answer"
                 if outcome is None

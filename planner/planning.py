@@ -84,15 +84,19 @@ def plan_scenario(
     planner_hook: Callable[[ConditionalPlanner], None] | None = None,
     skip: tuple[str, ...] = (),
     cache_dir: Path | str | None = None,
+    start: State | None = None,
 ) -> PlanResult:
     """Plans every contingency of `scenario`; raises `hcp.DeadEnd` if no plan exists.
+
+    `start` is the state to plan from (default: the scenario's initial state);
+    a repair plans from what was observed.
 
     `planner_hook` receives the planner before it starts (to cancel it from
     another thread); `skip` leaves encoding concerns out (for ablation tests);
     `cache_dir` is where geometric checks are cached (see `bench_checks`).
     """
     with bench_checks(scenario, cache_dir) as checks:
-        return _plan(scenario, checks, workers, progress, planner_hook, skip)
+        return _plan(scenario, checks, workers, progress, planner_hook, skip, start)
 
 
 def _plan(
@@ -102,6 +106,7 @@ def _plan(
     progress: Callable[[Progress], None] | None,
     planner_hook: Callable[[ConditionalPlanner], None] | None,
     skip: tuple[str, ...],
+    start: State | None = None,
 ) -> PlanResult:
     t0 = time.perf_counter()
     reachable, checks_s = feasible_pairs(scenario, checks)
@@ -122,7 +127,7 @@ def _plan(
     )
     if planner_hook:
         planner_hook(planner)
-    root = planner.build(initial_state(scenario))
+    root = planner.build(initial_state(scenario) if start is None else start)
     if planner.cancelled:
         raise PlanningCancelled(f"cancelled after {planner.solves} solves")
     plan = build_plan(

@@ -22,6 +22,7 @@ from app.outcomes import (
     RandomSource,
     ScriptedSource,
 )
+from app.repair import REPAIR, Repairer
 from app.store import SessionStore
 from planner.plan import Plan, PlanFormatError
 from planner.planning import plan_scenario
@@ -145,7 +146,9 @@ def _calibration(args: argparse.Namespace) -> CameraIntrinsics | None:
 
 
 def _print_event(event: ExecutionEvent) -> None:
-    line = f"{event.seq:3d} {event.node:>5} {event.action or 'goal'}"
+    line = f"{event.seq:3d} {event.node:>5} {event.action or event.kind}"
+    if event.kind == REPAIR:
+        line += f"  [repair: new plan of {len(event.plan.nodes) if event.plan else '?'} nodes]"
     if event.outcome is not None:
         line += f" -> {event.outcome} ({event.source})"
     if event.text:
@@ -202,12 +205,15 @@ def run(args: argparse.Namespace) -> int:
     with SessionStore(args.data_dir) as store:
         session_id = store.start(plan, note=note)
         print(f"session {session_id}", flush=True)
+        # A surprise (a scripted `!` line) plans again from what was observed.
+        repairing = Repairer(scenario, store.add_plan).repair if scenario is not None else None
         executor = Executor(
             plan,
             source,
             [store.recorder(session_id), *listeners, _print_event],
             args.step_delay,
             narrator=narrator,
+            repairing=repairing,
         )
 
         def stop(signum: int, frame: FrameType | None) -> None:

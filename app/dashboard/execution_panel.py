@@ -29,6 +29,7 @@ from app.dashboard.stage import (
 )
 from app.execution import ExecutionEvent, Executor, Listener, Narrator
 from app.outcomes import ClickSource, FallbackSource, Offer, OutcomeSource
+from app.repair import REPAIR, Repairer
 from app.session_db import StoreError
 from app.store import SessionStore
 from planner.plan import Motion, Plan
@@ -133,6 +134,7 @@ class ExecutionPanel:
             refuse(client, str(err))
             return
         self.session_id = session_id
+        scenario = self.stage.current_scenario()  # a surprise plans again from it
         self.operator.take(client_id)
         self.clicks = clicks
         self._log = []
@@ -142,6 +144,7 @@ class ExecutionPanel:
             [self.store.recorder(self.session_id), self._on_event, *listeners],
             step_delay=float(self.speed.value),
             narrator=narrator,
+            repairing=Repairer(scenario, self.store.add_plan).repair if scenario else None,
         )
         self.start_button.disabled = True
         for button in (self.pause_button, self.step_button, self.abort_button):
@@ -187,6 +190,8 @@ class ExecutionPanel:
     def _on_event(self, event: ExecutionEvent) -> None:
         # Runs in the executor's thread: a motion takes as long as it is played.
         self.stage.go_to(event.node, show_world=event.motion is None)
+        if event.kind == REPAIR and event.plan is not None:
+            self.stage.show_plan(event.plan)  # the execution goes on with the new plan
         if event.motion:
             self._play(event.motion, float(self.speed.value))
             self.stage.show_world(event.node)

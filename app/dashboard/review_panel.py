@@ -19,9 +19,10 @@ import viser
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
 from app.evidence_summary import summary
 from app.execution import RESULTS, ExecutionEvent
+from app.repair import REPAIR
 from app.session_db import StoreError
 from app.store import SessionRecord, SessionStore, UnknownSession, iso
-from planner.plan import PlanFormatError
+from planner.plan import Plan, PlanFormatError
 
 ANY = "any"
 FILTERS = (ANY, *RESULTS)
@@ -43,6 +44,8 @@ class ReviewPanel:
         self.session: SessionRecord | None = None
         self._ids: dict[str, int] = {}
         self.opened: int | None = None  # set once a session is fully on screen
+        self.plans: list[Plan] = []  # the plan of each event (repairs change it)
+        self.shown: Plan | None = None
         with gui.add_folder("Review sessions", expand_by_default=False):
             self.scenario_filter: Any = gui.add_text("Scenario", "")
             self.result_filter: Any = gui.add_dropdown("Result", FILTERS)
@@ -110,9 +113,11 @@ class ReviewPanel:
             self.session = self.store.get(session_id)
             self.events = self.store.events(session_id)
             plan = self.store.plan(self.session.plan_hash)
+            self.plans = self._plans_of(plan, self.events)
         except (UnknownSession, StoreError, PlanFormatError) as err:
             self.summary.content = f"**Error:** {err}"
             return
+        self.shown = plan
         self.stage.show_plan(plan)
         last = max(0, len(self.events) - 1)
         self.timeline.max = max(1, last)
@@ -120,6 +125,17 @@ class ReviewPanel:
         self.timeline.value = 0
         self.show_step(0)
         self.opened = session_id
+
+    def _plans_of(self, first: Plan, events: list[ExecutionEvent]) -> list[Plan]:
+        """The plan each event ran on: the session's, then each repair's new plan
+        from the event after the repair on."""
+        plans: list[Plan] = []
+        current = first
+        for event in events:
+            plans.append(current)
+            if event.kind == REPAIR and event.evidence is not None:
+                current = self.store.plan(str(event.evidence.detail["plan"]))
+        return plans
 
     def _timeline_moved(self, event: Any) -> None:
         # Moves made here (open, replay) show their step themselves.
@@ -131,6 +147,10 @@ class ReviewPanel:
             return
         k = min(max(0, k), len(self.events) - 1)
         event = self.events[k]
+        if self.plans and self.plans[k] is not self.shown:
+            # The execution changed plans here (a repair): so does the review.
+            self.shown = self.plans[k]
+            self.stage.show_plan(self.shown)
         self.stage.go_to(event.node)
         spoken = [
             f"`{e.node}` {e.action or e.kind}"
