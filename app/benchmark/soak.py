@@ -87,6 +87,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             pages: list[Page] = []
             for _ in range(args.pages):
                 page = browser.new_page(viewport={"width": 1400, "height": 900})
+                # Five pages of software WebGL on two busy cores answer slowly.
+                page.set_default_timeout(180_000)
                 page.on("pageerror", lambda err: page_errors.append(str(err)))
                 page.goto(f"http://127.0.0.1:{port}")
                 # Generous: on a loaded 2-core machine a page with the robot's meshes
