@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from planner import diagnosis
+from planner import conversation, diagnosis
 from planner.hcp import ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.plan import Plan, build_plan
 from planner.scenario import Scenario
@@ -139,6 +139,8 @@ def _plan(
         facts=facts,
         timings=(time.perf_counter() - t0, checks_s),
     )
+    plan = conversation.converse(plan)
+    plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
     if checks is not None:
         # Paths only for the actions the plan uses, once it is built: the solver
         # needs reachability alone.
