@@ -395,6 +395,9 @@ TABLE_HEADER = (
     "DN",
     "BF",
     "N",
+    "GE",
+    "W",
+    "X",
     "dag",
     "plan s",
     "checks s",
@@ -413,6 +416,8 @@ def stats_row(name: str, stats: Mapping[str, Any]) -> tuple[str, ...]:
         str(stats["DN"]),
         str(stats["BF"]),
         str(stats["N"]),
+        # Plans from before the conversation have no counts for it: they said none.
+        *(str(stats.get(k, 0)) for k in CONVERSATION_STAT_KEYS),
         str(stats["dag_nodes"]),
         f"{stats['plan_s']:.2f}",
         f"{stats['checks_s']:.2f}",
