@@ -147,3 +147,16 @@ def test_plan_names_the_dangerous_foot_only_the_human_reaches_in_a_13_part_bench
         "but the human may not handle a dangerous part: move foot5 into the shared region, "
         "or mark it not dangerous"
     )
+
+
+def test_the_dashboard_shows_the_same_line() -> None:
+    from app.dashboard.planning_job import JobStatus, PlanningJob
+
+    sc = scenario((FOOT1_DANGER, 'region = "humanOnly"\ndangerous = true'))
+    seen: list[JobStatus] = []
+    job = PlanningJob(sc, seen.append, workers=1)
+    job.start()
+    job.join(60)
+    assert not job.running and job.plan is None
+    cause = diagnosis.causes(sc, sc.reachable_pairs())[0]
+    assert seen[-1].state == "failed" and seen[-1].message == f"no plan: {cause.message}"
