@@ -81,7 +81,7 @@ def audit(plan: dict[str, Any]) -> list[Violation]:
         _compare_stats(plan.get("stats"), tree_stats(plan), plan_level)
         for node_id, message in motion_problems(nodes, root):
             out.append(Violation(node_id, walker.paths.get(node_id, ""), message))
-        for node_id, message in conversation_problems(walker.dom, nodes, root):
+        for node_id, message in conversation_problems(walker.dom, nodes, root, walker.state):
             out.append(Violation(node_id, walker.paths.get(node_id, ""), message))
     return out
 

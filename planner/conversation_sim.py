@@ -8,7 +8,7 @@ says exactly that there, in that order, and nothing else.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from planner.domain_sim import CONVERSATION, Domain, State, parse_action, parse_state
@@ -66,10 +66,19 @@ def due(dom: Domain, s: State, action: str | None, *, first: bool) -> list[str]:
 
 
 def conversation_problems(
-    dom: Domain, nodes: dict[str, Any], root: str
+    dom: Domain,
+    nodes: dict[str, Any],
+    root: str,
+    state_of: Callable[[str], tuple[State, list[str]]] | None = None,
 ) -> Iterator[tuple[str, str]]:
     """(node, message) for each place where a branch says too little, too much, or
-    out of order: every run of talk must be what its next node needs."""
+    out of order: every run of talk must be what its next node needs. `state_of`
+    gives a node's parsed state (the audit's walk has them already)."""
+
+    def parsed(node_id: str) -> tuple[State, list[str]]:
+        if state_of is not None:
+            return state_of(node_id)
+        return parse_state(nodes[node_id].get("state"))
 
     def action(node_id: str) -> str | None:
         raw = nodes[node_id]
@@ -107,7 +116,7 @@ def conversation_problems(
             node_id = kids[0]
         if talk(node_id) is not None:
             continue
-        state, errors = parse_state(nodes[node_id].get("state"))
+        state, errors = parsed(node_id)
         if errors:
             continue
         needed = due(dom, state, action(node_id), first=first)
