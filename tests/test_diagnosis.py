@@ -24,6 +24,7 @@ from planner.planning import (
 from planner.resources import scenario_path
 from planner.scenario import Scenario, load_scenario
 from tests.domain_fixtures import scenario
+from tests.plan_fixtures import ROOT
 
 FOOT1_DANGER = 'region = "shared"\ndangerous = true'
 CUPBOARD = (
@@ -99,8 +100,10 @@ def test_solvable_scenarios_have_no_cause(tmp_path: Path) -> None:
     # planner's reachability, as the planner sees it.
     paper = [f"paper/{instance_name(f, n)}.toml" for f, n in all_instances(families=False)]
     names = ["default.toml", "default-ko.toml", *paper]
-    for name in names:
-        sc = load_scenario(scenario_path(name))
+    paths = [scenario_path(name) for name in names]
+    paths.append(ROOT / "static" / "scenarios" / "real-world.toml")  # from this checkout
+    for name in paths:
+        sc = load_scenario(name)
         with bench_checks(sc, tmp_path / "cache") as checks:
             reach, _ = feasible_pairs(sc, checks)
         assert diagnosis.causes(sc, reach) == [], name
