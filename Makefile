@@ -31,6 +31,7 @@ test: $(STAMP) system
 bench: $(STAMP) system
 	$(BIN)/tandem bench
 	$(BIN)/python -m app.benchmark.dashboard_benchmark
+	$(BIN)/python -m app.benchmark.diagnosis_benchmark
 	$(BIN)/python -m perception.bench
 	$(BIN)/python -m app.benchmark.camera_benchmark
 	$(BIN)/python -m speech.bench

@@ -8,12 +8,12 @@ document instead of reusing the solver.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from planner.scenario_sections import DEFAULT_INITIATIVE
+from planner.domain_facts import Facts, parse_facts, term_order
 from planner.vocabulary import Term, TermError, constants, parse_term
 
-__all__ = ["Term", "TermError", "constants", "parse_term"]
+__all__ = ["Facts", "Term", "TermError", "constants", "parse_facts", "parse_term", "term_order"]
 
 # ---------------------------------------------------------------- state
 
@@ -71,114 +71,21 @@ def parse_state(items: object) -> tuple[State, list[str]]:
     return frozenset(out), errors
 
 
-# ---------------------------------------------------------------- facts
-
-_FACT_ARITY: dict[str, int] = {
-    "part": 1, "movable": 1, "class": 2, "attachable": 2, "connection": 2,
-    "dangerous": 1, "region": 1, "humanReach": 1, "loc": 2, "manipulator": 1,
-    "reachable": 2, "goal": 2, "safety": 1, "verbosity": 1, "initiative": 1,
-}  # fmt: skip
-
-
-@dataclass
-class Facts:
-    """The static facts of a plan file, indexed."""
-
-    parts: set[str] = field(default_factory=set)
-    movable: set[str] = field(default_factory=set)
-    cls: dict[str, str] = field(default_factory=dict)
-    attachable: set[tuple[str, str]] = field(default_factory=set)
-    connections: dict[str, set[str]] = field(default_factory=dict)
-    dangerous: set[str] = field(default_factory=set)
-    regions: set[str] = field(default_factory=set)
-    human_reach: set[str] = field(default_factory=set)
-    loc: dict[str, str] = field(default_factory=dict)
-    manipulators: list[str] = field(default_factory=list)
-    reachable: set[tuple[str, str]] = field(default_factory=set)
-    goals: list[tuple[str, str]] = field(default_factory=list)
-    safety: str = "normal"
-    verbosity: str = "normal"
-    initiative: int = DEFAULT_INITIATIVE  # how often the human may pick a part up unasked
-
-
-def parse_facts(items: object) -> tuple[Facts, list[str]]:
-    """Index the fact strings. Unknown predicates are ignored (planner helpers)."""
-    facts = Facts()
-    if not isinstance(items, list):
-        return facts, ["facts must be a list of strings"]
-    errors: list[str] = []
-    for item in items:
-        try:
-            term = parse_term(item) if isinstance(item, str) else None
-        except TermError as exc:
-            errors.append(f"facts: {exc}")
-            continue
-        if term is None:
-            errors.append(f"facts: {item!r} is not a string")
-            continue
-        args = constants(term)
-        arity = _FACT_ARITY.get(term.name)
-        if arity is None:
-            continue
-        if args is None or len(args) != arity:
-            errors.append(f"facts: {item} should have {arity} constant argument(s)")
-            continue
-        error = _add_fact(facts, term.name, args)
-        if error:
-            errors.append(f"facts: {item}: {error}")
-    return facts, errors
-
-
-def _add_fact(f: Facts, name: str, a: tuple[str, ...]) -> str | None:
-    simple: dict[str, set[str]] = {
-        "part": f.parts, "movable": f.movable, "dangerous": f.dangerous,
-        "region": f.regions, "humanReach": f.human_reach,
-    }  # fmt: skip
-    if name in simple:
-        simple[name].add(a[0])
-    elif name == "class":
-        # class(Cl,P): the class comes first.
-        if f.cls.setdefault(a[1], a[0]) != a[0]:
-            return f"{a[1]} already has class {f.cls[a[1]]}"
-    elif name == "loc":
-        if f.loc.setdefault(a[0], a[1]) != a[1]:
-            return f"{a[0]} already lies in {f.loc[a[0]]}"
-    elif name == "attachable":
-        f.attachable.add((a[0], a[1]))
-    elif name == "connection":
-        f.connections.setdefault(a[0], set()).add(a[1])
-    elif name == "manipulator":
-        if a[0] not in f.manipulators:
-            f.manipulators.append(a[0])
-    elif name == "reachable":
-        f.reachable.add((a[0], a[1]))
-    elif name == "goal":
-        if (a[0], a[1]) not in f.goals:
-            f.goals.append((a[0], a[1]))
-    elif name == "safety":
-        f.safety = a[0]
-    elif name == "verbosity":
-        f.verbosity = a[0]
-    elif name == "initiative":
-        if not re.fullmatch(r"[0-9]+", a[0]):
-            return "the budget must be a non-negative integer"
-        f.initiative = int(a[0])
-    return None
-
-
-def term_order(arg: str) -> tuple[int, int, str]:
-    """Sort key of a constant argument in ASP term order (what `#min` uses):
-    integers by value, then plain constants by their bytes, then strings."""
-    if re.fullmatch(r"-?[0-9]+", arg):
-        return (0, int(arg), "")
-    return (2 if arg.startswith('"') else 1, 0, arg)
-
-
 # ---------------------------------------------------------------- actions
 
 ACTUATION, SENSING, COMMUNICATION, GOAL = "actuation", "sensing", "communication", "goal"
 KINDS = (ACTUATION, SENSING, COMMUNICATION, GOAL)
 
+# The conversation (docs/domain.md, "Conversation"): deterministic communication
+# that changes nothing in the world; when it is due is `planner.conversation_sim`'s.
+CONVERSATION: dict[str, tuple[str, ...]] = {
+    "greet": (),
+    "farewell": (),
+    "warnWorking": ("region",),
+    "warnDanger": ("part",),
+    "explainAsk": ("part",),
+    "explainOwnTask": ("part",),
+}
 # name -> (kind, argument types, deterministic). Sensing actions are keyed by
 # the inner term's name (`sense(humanUnholding(P))` -> "humanUnholding").
 _ACTIONS: dict[str, tuple[str, tuple[str, ...], bool]] = {
@@ -194,6 +101,7 @@ _ACTIONS: dict[str, tuple[str, tuple[str, ...], bool]] = {
     "offerHelp": (COMMUNICATION, ("part", "part"), False),
     "requestToUnhold": (COMMUNICATION, ("part",), True),
     "requestToAttach": (COMMUNICATION, ("part", "part"), True),
+    **{name: (COMMUNICATION, types, True) for name, types in CONVERSATION.items()},
 }
 _SENSED = {k for k, v in _ACTIONS.items() if v[0] == SENSING}
 
@@ -236,6 +144,8 @@ def parse_action(text: str, facts: Facts) -> Action | str:
             return f"{shown}: unknown manipulator {arg}"
         if typ == "part" and arg not in facts.parts:
             return f"{shown}: unknown part {arg}"
+        if typ == "region" and arg not in facts.regions:
+            return f"{shown}: unknown region {arg}"
     return Action(inner.name, args, shown)
 
 
@@ -339,6 +249,7 @@ class Domain:
             *(("declined", p, q) for gp, q in self.f.goals if gp == p),
         }
 
+
     def lapse(self, s: State) -> State:
         # The human may have picked up any candidate meanwhile.
         return s - {HUMAN_FREE} if self.candidates(s) else s
@@ -424,6 +335,10 @@ class Domain:
             need(any((m, p) in f.reachable for m in f.manipulators), f"reachable(_,{p})")
         elif n == "requestToAttach":
             need(("declined", p, q) in s, f"declined({p},{q})")
+        if n in CONVERSATION:
+            need(f.verbosity in ("normal", "chatty"), "verbosity normal or chatty")
+            if n.startswith("explain"):
+                need(f.verbosity == "chatty", "verbosity chatty")
         return fails, safety
 
     def _attach_preconditions(self, s: State, a: Action) -> list[str]:
@@ -463,6 +378,8 @@ class Domain:
         p = x[0] if x else ""
         q = x[1] if len(x) > 1 else ""
         hand = {HUMAN_HOLDING, ("humanHoldingPart", p)}
+        if n in CONVERSATION:
+            return {None: s}  # talk moves no part
         if n == "hold":
             return {None: self.lapse(s | {("holding", x[0], x[1])})}
         if n == "attach":

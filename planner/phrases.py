@@ -3,14 +3,21 @@
 from __future__ import annotations
 
 from planner.vocabulary import (
+    CONVERSATION,
     AskHelp,
     Communication,
     ConfirmAttach,
+    ExplainAsk,
+    ExplainOwnTask,
+    Farewell,
+    Greet,
     OfferHelp,
     RequestToAttach,
     RequestToUnhold,
     Reserved,
     State,
+    WarnDanger,
+    WarnWorking,
     parse_term,
 )
 
@@ -25,6 +32,12 @@ TERSE = {
     OfferHelp.name: "The {0} is sharp. Shall I?",
     RequestToUnhold.name: "Please put the {0} down.",
     RequestToAttach.name: "Please attach the {0} to the {1}.",
+    Greet.name: "Hello.",
+    Farewell.name: "Done. Thank you.",
+    WarnWorking.name: "Mind your hands: I work in the {0} region.",
+    WarnDanger.name: "Careful: the {0} is sharp.",
+    ExplainAsk.name: "I cannot reach the {0}.",
+    ExplainOwnTask.name: "The {0} is sharp; I will do it.",
 }
 
 
@@ -35,6 +48,12 @@ KOREAN_TERSE = {
     OfferHelp.name: "{0} 부품은 날카로워요. 제가 할까요?",
     RequestToUnhold.name: "{0} 부품을 내려놓아 주세요.",
     RequestToAttach.name: "{0} 부품을 {1}에 붙여 주세요.",
+    Greet.name: "안녕하세요.",
+    Farewell.name: "끝났어요. 감사합니다.",
+    WarnWorking.name: "{0} 구역에서 작업해요. 손 조심하세요.",
+    WarnDanger.name: "{0} 부품은 날카로워요.",
+    ExplainAsk.name: "{0} 부품에 손이 닿지 않아요.",
+    ExplainOwnTask.name: "{0} 부품은 제가 할게요.",
 }
 KOREAN = {
     ConfirmAttach.name: "{0} 부품을 들고 계시네요. {1}에 붙이실 건가요?",
@@ -42,6 +61,12 @@ KOREAN = {
     OfferHelp.name: "조심하세요, {0} 부품은 날카로워요. 제가 {1}에 붙여 드릴까요?",
     RequestToUnhold.name: "{0} 부품을 내려놓아 주세요. 제가 처리할게요.",
     RequestToAttach.name: "{0} 부품을 {1}에 붙여 주세요. 꼭 필요한데 제 손이 닿지 않아요.",
+    Greet.name: "안녕하세요! 함께 테이블을 만들어요.",
+    Farewell.name: "테이블이 완성됐어요. 도와주셔서 감사합니다!",
+    WarnWorking.name: "조심하세요, 제가 {0} 구역에서 작업할게요. 손을 조심해 주세요.",
+    WarnDanger.name: "조심하세요, {0} 부품은 날카로워요. 만지지 마세요.",
+    ExplainAsk.name: "{0} 부품에 제 팔이 닿지 않아서 도움을 부탁드릴게요.",
+    ExplainOwnTask.name: "{0} 부품은 날카로워서 제가 직접 붙일게요.",
 }
 
 
@@ -56,7 +81,8 @@ def say(
     if verbosity == "terse":
         return TERSE[action.name].format(*action.arguments)
     sentence = _say_normal(action)
-    if verbosity == "chatty" and reason:
+    # An explanation is its own reason; greetings and warnings need none spoken.
+    if verbosity == "chatty" and reason and action.name not in CONVERSATION:
         return f"{sentence} ({reason})"
     return sentence
 
@@ -75,6 +101,18 @@ def _say_normal(action: Communication) -> str:
             return (
                 f"Please attach {_the(p)} to {_the(q)}; the table needs it and I cannot reach it."
             )
+        case Greet():
+            return "Hello! Let's build the table together."
+        case Farewell():
+            return "The table is done. Thank you for your help, goodbye!"
+        case WarnWorking(r):
+            return f"Careful, I am going to work in the {r} region; please mind your hands."
+        case WarnDanger(d):
+            return f"Careful, {_the(d)} is sharp; please keep your hands off it."
+        case ExplainAsk(p):
+            return f"I cannot reach {_the(p)} with either arm, so I will ask you for help with it."
+        case ExplainOwnTask(p):
+            return f"{_the(p).capitalize()} is sharp, so I will attach it myself."
     raise ValueError(f"not a communication action: {action}")
 
 
@@ -114,5 +152,29 @@ def why(action: Communication, state: State, facts: frozenset[str]) -> str:
             return (
                 f"No arm can reach {p} in region {_region(p, facts)} and the human declined to "
                 "help; without it the table cannot be finished."
+            )
+        case Greet():
+            return "Opening the conversation: the human knows the robot is ready to work with them."
+        case Farewell():
+            return "Every attachment of the final configuration is made: the work is over."
+        case WarnWorking(r):
+            return (
+                "The human holds a part, so their hands are at the bench, and the next arm "
+                f"motion is in region {r}, which the human reaches."
+            )
+        case WarnDanger(d):
+            return (
+                f"The robot is about to send the human into region {_region(d, facts)}, where "
+                f"the dangerous {d} lies loose."
+            )
+        case ExplainAsk(p):
+            return (
+                f"No arm can reach {p} in region {_region(p, facts)}: the human hears why they "
+                "are asked before the question."
+            )
+        case ExplainOwnTask(p):
+            return (
+                f"{p} is dangerous and lies where the human reaches it: the human hears why the "
+                "robot takes it."
             )
     raise ValueError(f"not a communication action: {action}")

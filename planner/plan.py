@@ -22,7 +22,11 @@ from pydantic import BaseModel, ConfigDict, PlainSerializer, PlainValidator, Val
 from planner import phrases, walks
 from planner.vocabulary import (
     ACTION_TYPES,
+    CONVERSATION,
+    EXPLANATIONS,
+    GREETINGS,
     REQUESTS,
+    WARNINGS,
     Action,
     AskHelp,
     Communication,
@@ -38,8 +42,13 @@ if TYPE_CHECKING:
     from planner.vocabulary import State
 
 FORMAT = "tandem-plan/1"
-# The paper's columns (Tables 1-3), then the number of distinct nodes.
-STAT_KEYS = ("L", "D", "A", "S", "C", "K", "O", "CF", "R", "DN", "BF", "N", "dag_nodes")
+# The paper's columns (Tables 1-3), then the number of distinct nodes: what every
+# plan file has. They count the paper's repertoire, so plans compare with its tables.
+PAPER_STAT_KEYS = ("L", "D", "A", "S", "C", "K", "O", "CF", "R", "DN", "BF", "N", "dag_nodes")
+# The conversation beyond the paper's five actions, counted apart: greetings and
+# goodbyes (GE), warnings (W), explanations (X). Older plan files lack them.
+CONVERSATION_STAT_KEYS = ("GE", "W", "X")
+STAT_KEYS = (*PAPER_STAT_KEYS[:-1], *CONVERSATION_STAT_KEYS, "dag_nodes")
 TIMING_KEYS = ("plan_s", "checks_s")
 # "open" only in a partial plan: a state that waits for its solve.
 NodeKind = Literal["actuation", "sensing", "communication", "goal", "open"]
@@ -175,7 +184,7 @@ class Plan(BaseModel):
             if (node.action is None) != (node.kind in ("goal", "open")):
                 raise PlanFormatError(f"{source}: nodes.{node_id}: only goals have no action")
         if self.stats is not None:
-            missing = [k for k in STAT_KEYS if k not in self.stats]
+            missing = [k for k in PAPER_STAT_KEYS if k not in self.stats]
             if missing:
                 raise PlanFormatError(f"{source}: stats: missing {', '.join(missing)}")
 
@@ -333,15 +342,22 @@ def number_states(nodes: Mapping[State, DagNode], root: State) -> dict[State, st
 
 
 def tree_stats(plan: Plan) -> dict[str, int | float]:
-    """Statistics of the unfolded tree (shared nodes count once per path), by DP."""
+    """Statistics of the unfolded tree (shared nodes count once per path), by DP.
+
+    The paper's columns leave the conversation out (its nodes add nothing to N, D or
+    C); GE, W and X count it."""
     memo: dict[str, dict[str, int]] = {}
     for node_id in plan.postorder():
         node = plan.nodes[node_id]
         kids = [memo[c.node] for c in node.children]
         name = node.action.name if node.action is not None else ""
         nondet = any(c.outcome is not None for c in node.children)
+        talk = name in CONVERSATION
         s = {
-            "N": 1 + sum(k["N"] for k in kids),
+            "N": (not talk) + sum(k["N"] for k in kids),
+            "GE": (name in GREETINGS) + sum(k["GE"] for k in kids),
+            "W": (name in WARNINGS) + sum(k["W"] for k in kids),
+            "X": (name in EXPLANATIONS) + sum(k["X"] for k in kids),
             "L": 1 if not kids else sum(k["L"] for k in kids),
             "K": (name == AskHelp.name) + sum(k["K"] for k in kids),
             "O": (name == OfferHelp.name) + sum(k["O"] for k in kids),
@@ -357,10 +373,10 @@ def tree_stats(plan: Plan) -> dict[str, int | float]:
             longest = max(k["D"] for k in kids)
             first = next(k for k in kids if k["D"] == longest)
             s.update(
-                D=first["D"] + 1,
+                D=first["D"] + (not talk),
                 A=first["A"] + (node.kind == "actuation"),
                 S=first["S"] + (node.kind == "sensing"),
-                C=first["C"] + (node.kind == "communication"),
+                C=first["C"] + (node.kind == "communication" and not talk),
             )
         memo[node_id] = s
     stats: dict[str, int | float] = dict(memo[plan.root])
@@ -379,6 +395,9 @@ TABLE_HEADER = (
     "DN",
     "BF",
     "N",
+    "GE",
+    "W",
+    "X",
     "dag",
     "plan s",
     "checks s",
@@ -397,6 +416,8 @@ def stats_row(name: str, stats: Mapping[str, Any]) -> tuple[str, ...]:
         str(stats["DN"]),
         str(stats["BF"]),
         str(stats["N"]),
+        # Plans from before the conversation have no counts for it: they said none.
+        *(str(stats.get(k, 0)) for k in CONVERSATION_STAT_KEYS),
         str(stats["dag_nodes"]),
         f"{stats['plan_s']:.2f}",
         f"{stats['checks_s']:.2f}",

@@ -9,7 +9,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from planner.hcp import ConditionalPlanner, DagNode, Problem, Progress
+from planner import conversation, diagnosis
+from planner.hcp import ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.plan import Plan, build_plan
 from planner.scenario import Scenario
 from planner.vocabulary import State
@@ -110,6 +111,8 @@ def _plan(
 ) -> PlanResult:
     t0 = time.perf_counter()
     reachable, checks_s = feasible_pairs(scenario, checks)
+    # A cause found before the search is an answer in microseconds, not minutes.
+    diagnosis.check(scenario, reachable)
     facts = scenario.facts(reachable)
     problem = Problem(
         facts=tuple(f for f in facts if not f.startswith("reachable(")),
@@ -127,7 +130,10 @@ def _plan(
     )
     if planner_hook:
         planner_hook(planner)
-    root = planner.build(initial_state(scenario) if start is None else start)
+    try:
+        root = planner.build(initial_state(scenario) if start is None else start)
+    except DeadEnd as err:
+        raise diagnosis.explain(err, scenario, reachable) from err
     if planner.cancelled:
         raise PlanningCancelled(f"cancelled after {planner.solves} solves")
     plan = build_plan(
@@ -138,6 +144,8 @@ def _plan(
         facts=facts,
         timings=(time.perf_counter() - t0, checks_s),
     )
+    plan = conversation.converse(plan)
+    plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
     if checks is not None:
         # Paths only for the actions the plan uses, once it is built: the solver
         # needs reachability alone.

@@ -315,6 +315,56 @@ class RequestToAttach(_Word):
     onto: str
 
 
+# The conversation (deterministic, planned around the task plan by
+# planner/conversation.py): greeting, goodbye, warnings, explanations.
+@dataclass(frozen=True)
+class Greet(_Word):
+    name: ClassVar[str] = "greet"
+    kind: ClassVar[str] = "communication"
+
+
+@dataclass(frozen=True)
+class Farewell(_Word):
+    name: ClassVar[str] = "farewell"
+    kind: ClassVar[str] = "communication"
+
+
+@dataclass(frozen=True)
+class WarnWorking(_Word):
+    """Before an arm works in `region` while the human's hands are at the bench."""
+
+    name: ClassVar[str] = "warnWorking"
+    kind: ClassVar[str] = "communication"
+    region: str
+
+
+@dataclass(frozen=True)
+class WarnDanger(_Word):
+    """Before the human is sent where the dangerous `part` lies loose."""
+
+    name: ClassVar[str] = "warnDanger"
+    kind: ClassVar[str] = "communication"
+    part: str
+
+
+@dataclass(frozen=True)
+class ExplainAsk(_Word):
+    """Why the robot asks for `part`: no arm reaches it."""
+
+    name: ClassVar[str] = "explainAsk"
+    kind: ClassVar[str] = "communication"
+    part: str
+
+
+@dataclass(frozen=True)
+class ExplainOwnTask(_Word):
+    """Why the robot handles `part` itself: it is dangerous."""
+
+    name: ClassVar[str] = "explainOwnTask"
+    kind: ClassVar[str] = "communication"
+    part: str
+
+
 # Sensing actions are `sense(Query)`; each query is its own class, so that the
 # action `sense(humanHolding)` and the fluent `humanHolding` never share a name.
 @dataclass(frozen=True)
@@ -353,7 +403,10 @@ class SenseHumanAttachingWhere(_Sensing):
 
 
 Actuation = Hold | Attach | Unhold
-Communication = ConfirmAttach | AskHelp | OfferHelp | RequestToUnhold | RequestToAttach
+Conversation = Greet | Farewell | WarnWorking | WarnDanger | ExplainAsk | ExplainOwnTask
+Communication = (
+    ConfirmAttach | AskHelp | OfferHelp | RequestToUnhold | RequestToAttach | Conversation
+)
 Sensing = (
     SenseHumanHolding | SenseHumanHoldingWhichPart | SenseHumanUnholding | SenseHumanAttachingWhere
 )
@@ -362,7 +415,8 @@ Action = Actuation | Communication | Sensing
 _ACTIONS: dict[str, type[Actuation | Communication]] = {
     c.name: c
     for c in (Hold, Attach, Unhold, ConfirmAttach, AskHelp, OfferHelp, RequestToUnhold,
-              RequestToAttach)
+              RequestToAttach, Greet, Farewell, WarnWorking, WarnDanger, ExplainAsk,
+              ExplainOwnTask)
 }  # fmt: skip
 _QUERIES: dict[str, type[Sensing]] = {
     c.name: c
@@ -373,6 +427,11 @@ ACTION_TYPES: tuple[type[Action], ...] = (*_ACTIONS.values(), *_QUERIES.values()
 # Questions the human answers yes or no; requests are complied with.
 QUESTIONS = (ConfirmAttach.name, AskHelp.name, OfferHelp.name)
 REQUESTS = (RequestToUnhold.name, RequestToAttach.name)
+# Beyond the paper's five: counted apart in the statistics (plan.tree_stats).
+GREETINGS = (Greet.name, Farewell.name)
+WARNINGS = (WarnWorking.name, WarnDanger.name)
+EXPLANATIONS = (ExplainAsk.name, ExplainOwnTask.name)
+CONVERSATION = (*GREETINGS, *WARNINGS, *EXPLANATIONS)
 KINDS = ("actuation", "sensing", "communication")
 
 

@@ -29,7 +29,9 @@ from planner.domain_sim import (
 # human cannot reach, and a human-only leg that no manipulator reaches.
 # leg2 is reserved in every state of the plan, so it is never a candidate:
 # that keeps the plan small while leaving a delegable part for askHelp.
-# No initiative fact: the human's initiative budget defaults to 1.
+# No initiative fact: the human's initiative budget defaults to 1. A terse
+# robot: the conversation it would otherwise need around these hand-built plans
+# is tested on planned ones (tests/test_conversation.py).
 FACTS = [
     "region(robotOnly)", "region(shared)", "region(humanOnly)",
     "humanReach(shared)", "humanReach(humanOnly)",
@@ -43,7 +45,7 @@ FACTS = [
     "reachable(left,top)", "reachable(right,top)",
     "reachable(left,leg1)", "reachable(right,leg1)",
     "reachable(left,foot1)", "reachable(right,foot1)",
-    "goal(leg1,top)", "safety(normal)", "verbosity(normal)",
+    "goal(leg1,top)", "safety(normal)", "verbosity(terse)",
 ]  # fmt: skip
 
 R2 = "reserved(leg2)"

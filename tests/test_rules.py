@@ -34,8 +34,10 @@ def test_safety_never_asks_help_with_a_dangerous_part(tmp_path: Path) -> None:
     )
     assert run.returncode == 1
     assert "no plan" in run.stderr and "Traceback" not in run.stderr
-    # It names a dead branch and the state where nothing more can be done.
-    assert "first dead branch: " in run.stderr and "no way to the goal" in run.stderr
+    # It names the cause, with a fix, before any search (tests/test_diagnosis.py;
+    # the search's own dead-end report is tested in tests/test_hcp.py).
+    assert "foot1 is dangerous and only the human reaches it" in run.stderr
+    assert "move foot1 into the shared region, or mark it not dangerous" in run.stderr
 
 
 def test_safety_never_confirms_a_dangerous_attachment() -> None:

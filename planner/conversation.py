@@ -1,0 +1,157 @@
+"""The conversation around a task plan: greeting, goodbye, warnings, explanations.
+
+These communication actions are deterministic and change nothing in the world,
+so they never change which task plan is best: they are planned once the task
+plan is built, by one clingo solve of `planner/asp/conversation.lp` over all of
+the plan's nodes, and put in as communication nodes just before the node that
+needs them (in the same state: talk moves no part). The search, and the
+paper's columns of the statistics, stay what they were.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import clingo
+
+from planner import phrases, walks
+from planner.plan import CONVERSATION_STAT_KEYS, Child, Plan, PlanNode
+from planner.resources import encoding_dir
+from planner.vocabulary import (
+    EXPLANATIONS,
+    GREETINGS,
+    WARNINGS,
+    AskHelp,
+    Attach,
+    Communication,
+    Hold,
+    RequestToAttach,
+    parse_action,
+    parse_term,
+)
+
+PROGRAM = "conversation.lp"
+# The fluents read of a node, by its action: whether the human holds a part, and
+# what is held and attached (the assembly an arm works on, the parts left loose).
+_HANDS = ("humanHolding", "holding(", "attached(")
+_READ: dict[str, tuple[str, ...]] = {
+    Hold.name: ("humanHolding",),
+    Attach.name: _HANDS,
+    AskHelp.name: _HANDS,
+    RequestToAttach.name: _HANDS,
+}
+_COUNTED = {"GE": GREETINGS, "W": WARNINGS, "X": EXPLANATIONS}
+
+
+def converse(plan: Plan) -> Plan:
+    """`plan` with what the robot says around its actions, by the plan's verbosity."""
+    facts = frozenset(plan.facts)
+    if "verbosity(terse)" in facts:
+        return plan  # a terse robot says none of it
+    said = _solve(plan)
+    if not said:
+        return plan
+    language = _language(facts)
+    verbosity = next((_arg(f) for f in facts if f.startswith("verbosity(")), "normal")
+    # Talk before node X is a chain X.0 -> X.1 -> ... -> X; parents point at X.0.
+    def entry(node_id: str) -> str:
+        return f"{node_id}.0" if node_id in said else node_id
+
+    def successors(key: str) -> list[str]:
+        node_id, _, i = key.partition(".")
+        if i:
+            nxt = int(i) + 1
+            return [f"{node_id}.{nxt}" if nxt < len(said[node_id]) else node_id]
+        return [entry(c.node) for c in plan.nodes[node_id].children]
+
+    root = entry(plan.root)
+    ids = {key: f"n{i}" for i, key in enumerate(walks.breadth_first(root, successors))}
+    nodes: dict[str, PlanNode] = {}
+    for key, new_id in ids.items():
+        node_id, _, i = key.partition(".")
+        node = plan.nodes[node_id]
+        if not i:
+            kids = [Child(outcome=c.outcome, node=ids[entry(c.node)]) for c in node.children]
+            nodes[new_id] = node.model_copy(update={"children": kids})
+            continue
+        action = said[node_id][int(i)]
+        why = phrases.why(action, frozenset(node.state), facts)
+        nodes[new_id] = PlanNode(
+            kind="communication",
+            action=action,
+            state=list(node.state),
+            children=[Child(outcome=None, node=ids[successors(key)[0]])],
+            say=phrases.say(action, verbosity, why, language),
+            why=why,
+        )
+    out = plan.model_copy(update={"root": ids[root], "nodes": nodes})
+    if plan.stats is not None:
+        # The paper's columns leave the conversation out, so they stay as they were.
+        out.stats = {**plan.stats, **_counts(out), "dag_nodes": len(out.nodes)}
+    return out
+
+
+def _solve(plan: Plan) -> dict[str, list[Communication]]:
+    """What is said before each node, in order."""
+    ctl = clingo.Control(["--warn=none"])
+    with (encoding_dir() / PROGRAM).open() as f:
+        ctl.add("base", [], f.read())
+    ctl.add("base", [], "\n".join(f"{fact}." for fact in _node_facts(plan)))
+    ctl.ground([("base", [])])
+    found: list[tuple[str, int, str]] = []
+
+    def on_model(model: clingo.Model) -> None:
+        found[:] = [
+            (str(s.arguments[0]), s.arguments[2].number, str(s.arguments[1]))
+            for s in model.symbols(shown=True)
+        ]
+
+    ctl.solve(on_model=on_model)
+    out: dict[str, list[Communication]] = {}
+    for node_id, _, text in sorted(found):
+        action = parse_action(text)
+        assert isinstance(action, Communication)
+        out.setdefault(node_id, []).append(action)
+    return out
+
+
+def _node_facts(plan: Plan) -> Iterable[str]:
+    yield from plan.facts
+    yield f"root({plan.root})"
+    for node_id, node in plan.nodes.items():
+        if node.kind == "goal":
+            yield f"goalNode({node_id})"
+        # Only the nodes and fluents the rules read: U10's states hold some
+        # 40,000 fluents, and parsing them would cost more than the rest.
+        read = _READ.get(node.action.name) if node.action is not None else None
+        if read is None:
+            continue
+        yield f"does({node_id},{node.action})"
+        for fluent in node.state:
+            if fluent.startswith(read):
+                yield f"in({node_id},{fluent})"
+
+
+def _counts(plan: Plan) -> dict[str, int]:
+    """GE, W and X of the unfolded tree: each node once per path from the root."""
+    order = plan.postorder()
+    copies = dict.fromkeys(order, 0)
+    copies[plan.root] = 1
+    for node_id in reversed(order):
+        for child in plan.nodes[node_id].children:
+            copies[child.node] += copies[node_id]
+    out = dict.fromkeys(CONVERSATION_STAT_KEYS, 0)
+    for node_id, n in copies.items():
+        action = plan.nodes[node_id].action
+        name = action.name if action is not None else ""
+        for key, names in _COUNTED.items():
+            out[key] += n if name in names else 0
+    return out
+
+
+def _arg(fact: str) -> str:
+    return str(parse_term(fact).args[0])
+
+
+def _language(facts: frozenset[str]) -> str:
+    return next((_arg(f).strip('"') for f in facts if f.startswith("language(")), "en-us")
