@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -43,10 +44,13 @@ def initial_state(scenario: Scenario) -> State:
 
 
 @contextmanager
-def bench_checks(scenario: Scenario, cache_dir: Path | str | None) -> Iterator[BenchChecks | None]:
+def bench_checks(
+    scenario: Scenario, cache_dir: Path | str | None, workers: int = 1
+) -> Iterator[BenchChecks | None]:
     """The geometric checks of a scenario whose feasibility source is geometry, else None.
 
-    `cache_dir`: where the check cache lives (None: the default, ":memory:": none).
+    `cache_dir`: where the check cache lives (None: the default, ":memory:": none);
+    `workers`: processes that answer cache misses (0: one per core).
     """
     if scenario.feasibility.source != "geometry":
         yield None
@@ -55,7 +59,10 @@ def bench_checks(scenario: Scenario, cache_dir: Path | str | None) -> Iterator[B
     from planner.feasibility.cache import CheckCache
     from planner.feasibility.checks import BenchChecks
 
-    with CheckCache(cache_dir) as cache, BenchChecks(scenario, cache=cache) as checks:
+    workers = workers or mp.cpu_count()
+    with CheckCache(cache_dir) as cache, BenchChecks(
+        scenario, cache=cache, workers=workers
+    ) as checks:
         yield checks
 
 
@@ -84,14 +91,17 @@ def plan_scenario(
     planner_hook: Callable[[ConditionalPlanner], None] | None = None,
     skip: tuple[str, ...] = (),
     cache_dir: Path | str | None = None,
+    check_workers: int | None = None,
 ) -> PlanResult:
     """Plans every contingency of `scenario`; raises `hcp.DeadEnd` if no plan exists.
 
     `planner_hook` receives the planner before it starts (to cancel it from
     another thread); `skip` leaves encoding concerns out (for ablation tests);
-    `cache_dir` is where geometric checks are cached (see `bench_checks`).
+    `cache_dir` is where geometric checks are cached (see `bench_checks`), and
+    `check_workers` how many processes check geometry (None: as many as `workers`).
     """
-    with bench_checks(scenario, cache_dir) as checks:
+    checkers = workers if check_workers is None else check_workers
+    with bench_checks(scenario, cache_dir, checkers) as checks:
         return _plan(scenario, checks, workers, progress, planner_hook, skip)
 
 
