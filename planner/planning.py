@@ -92,6 +92,8 @@ def plan_scenario(
     skip: tuple[str, ...] = (),
     cache_dir: Path | str | None = None,
     check_workers: int | None = None,
+    cluster: str | None = None,
+    window: int = 0,
 ) -> PlanResult:
     """Plans every contingency of `scenario`; raises `hcp.DeadEnd` if no plan exists.
 
@@ -99,10 +101,13 @@ def plan_scenario(
     another thread); `skip` leaves encoding concerns out (for ablation tests);
     `cache_dir` is where geometric checks are cached (see `bench_checks`), and
     `check_workers` how many processes check geometry (None: as many as `workers`).
+    `cluster` ("auto", "ray://HOST:PORT") solves branches on Ray actors, `workers`
+    of them (0: one per CPU of the cluster); `window` is how many states are
+    solved side by side (0: two per worker; the plan depends on it alone).
     """
     checkers = workers if check_workers is None else check_workers
-    with bench_checks(scenario, cache_dir, checkers) as checks:
-        return _plan(scenario, checks, workers, progress, planner_hook, skip)
+    with bench_checks(scenario, cache_dir, checkers or (1 if cluster else 0)) as checks:
+        return _plan(scenario, checks, workers, progress, planner_hook, skip, cluster, window)
 
 
 def _plan(
@@ -112,6 +117,8 @@ def _plan(
     progress: Callable[[Progress], None] | None,
     planner_hook: Callable[[ConditionalPlanner], None] | None,
     skip: tuple[str, ...],
+    cluster: str | None = None,
+    window: int = 0,
 ) -> PlanResult:
     t0 = time.perf_counter()
     reachable, checks_s = feasible_pairs(scenario, checks)
@@ -127,8 +134,22 @@ def _plan(
     def on_first(_: dict[State, DagNode]) -> None:
         first.append(time.perf_counter() - t0)
 
+    engine = None
+    if cluster is not None:
+        # Imported only here: without --cluster, Ray is never loaded.
+        from planner import cluster as ray_cluster
+
+        ray_cluster.connect(cluster)
+        workers = workers or ray_cluster.cluster_cpus()
+        engine = ray_cluster.BranchActors(problem, workers)
     planner = ConditionalPlanner(
-        problem, scenario.goal_pairs(), workers=workers, progress=progress, on_first_branch=on_first
+        problem,
+        scenario.goal_pairs(),
+        workers=workers,
+        progress=progress,
+        on_first_branch=on_first,
+        window=window,
+        engine=engine,
     )
     if planner_hook:
         planner_hook(planner)

@@ -18,6 +18,13 @@ import clingo
 from planner.encoding import FeasibilityContext, ground
 from planner.vocabulary import Action, State, parse_action
 
+# clasp keeps heuristic scores and learnt constraints from one solve to the next,
+# so among equally good plans the one returned depended on which states the
+# process had solved before: two workers gave another plan than one. A static
+# decision order and forgetting everything between solves make each answer a
+# function of its state alone (about as fast on the paper's instances).
+HISTORY_FREE = ("--heuristic=None", "--forget-on-step=varScores,signs,lemmaScores,lemmas")
+
 
 @dataclass(frozen=True)
 class Step:
@@ -57,7 +64,11 @@ class BranchSolver:
 
     def __post_init__(self) -> None:
         self._plan_ctl = ground(
-            self.facts, self.horizon, self.context, skip=self.skip, options=self.options
+            self.facts,
+            self.horizon,
+            self.context,
+            skip=self.skip,
+            options=(*HISTORY_FREE, *self.options),
         )
         # Assumptions are passed as solver literals, looked up once: symbol
         # assumptions cost a symbol-table lookup each on every solve.

@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     for folder in {out.parent, figure.parent}:
         folder.mkdir(parents=True, exist_ok=True)
     print(f"{len(todo)} variants of {len(args.scenarios)} scenario(s)", file=sys.stderr)
-    rows = _run(todo, args.cluster, args.workers)
+    rows = run_variants(todo, args.cluster, args.workers)
     columns = ["scenario", *(v.name for v in variations), *ROW_KEYS]
     with out.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=columns)
@@ -75,7 +75,8 @@ def _variants(scenarios: list[str], variations: list[Variation]) -> list[Variant
     return out
 
 
-def _run(todo: list[Variant], cluster: str | None, workers: int) -> list[dict[str, Any]]:
+def run_variants(todo: list[Variant], cluster: str | None, workers: int) -> list[dict[str, Any]]:
+    """Plans every variant: as Ray tasks on `cluster`, else in `workers` local processes."""
     if cluster:
         from planner import cluster as ray_cluster
 
