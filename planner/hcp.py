@@ -183,8 +183,10 @@ class ConditionalPlanner:
         # the number of workers or which finished first (0: two per worker).
         self.window = window or 2 * self.workers
         self.engine = engine
-        # (round, seconds) of every solve, for replaying the run on more workers.
+        # (round, seconds) of every solve, and the coordinator's seconds spent
+        # integrating results: enough to replay the run on more workers.
         self.trace: list[tuple[int, float]] = []
+        self.integrate_s = 0.0
         self.progress = progress
         self.on_first_branch = on_first_branch
         self.nodes: dict[State, DagNode] = {}
@@ -239,6 +241,7 @@ class ConditionalPlanner:
                     continue
                 done = list(pending)
                 rounds += 1
+                t_round = time.perf_counter()
                 for fut in done:
                     del pending[fut]
                     result = fut.result()
@@ -255,6 +258,7 @@ class ConditionalPlanner:
                         first_done = True
                         if self.on_first_branch:
                             self.on_first_branch(self.nodes)
+                self.integrate_s += time.perf_counter() - t_round
                 if self.progress:
                     self.progress(self._progress(len(queue) + len(pending), t0))
         finally:
