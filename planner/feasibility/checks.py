@@ -153,10 +153,13 @@ class BenchChecks:
     def prefetch_moves(self, moves: Iterable[Move]) -> None:
         """Starts the part-to-part motions of `moves` that are not cached, in the pool."""
         for arm, start, goal in moves:
-            if start == goal or (arm, start, goal) in self._move_pending or self.pool is None:
+            if start == goal or (arm, start, goal) in self._move_pending:
                 continue
+            # The cache first: a plan whose motions are all cached starts no process.
             if self.cache.get(f"{self.key}/move/{arm}/{start}/{goal}") is not None:
                 continue
+            if self.pool is None:
+                return
             self._move_pending[(arm, start, goal)] = self.pool.move(
                 arm, self.at(arm, start), self.at(arm, goal), frozenset({start, goal})
             )
