@@ -37,6 +37,9 @@ IK_HOPELESS = 0.05  # metres
 # on the paper's benches and families to n=18 no such pass was ever refined into a
 # solution, and the refinements are most of a "no" answer's cost.
 IK_REFINE_HOPELESS = 0.25  # metres
+# A pass that brings a solution still off by more than POS_TOL less than 10 % closer
+# ends the refinement too (never cut short a pass that led to a solution there).
+IK_STALLED = 0.9
 GOALS_WANTED = 3  # collision-free IK goals to try paths to
 
 
@@ -228,6 +231,7 @@ class World:
         q = list(seed_q)
         rest = [0.0] * len(r.movable)
         pos_err = orn_err = math.inf
+        previous = math.inf
         for _ in range(4):
             sol = pb.calculateInverseKinematics(
                 r.body,
@@ -247,6 +251,9 @@ class World:
             pos_err, orn_err = self._pose_error(arm, pos, orn)
             if pos_err < POS_TOL / 5 and orn_err < ORN_TOL / 5 or pos_err > IK_REFINE_HOPELESS:
                 break
+            if pos_err > POS_TOL and pos_err > IK_STALLED * previous:
+                break  # another pass from a stalled solution lands where this one did
+            previous = pos_err
         ok = pos_err < POS_TOL and orn_err < ORN_TOL and r.within_limits(arm, q)
         return q, pos_err, ok
 
