@@ -17,7 +17,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterable
 from concurrent.futures import Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 from planner import walks
@@ -36,6 +36,10 @@ class Problem:
     reachable: frozenset[tuple[str, str]]
     horizon: int
     skip: tuple[str, ...] = ()
+    # Answers that depend on the state alone (solver.HISTORY_FREE): set by the
+    # planner whenever several processes or actors solve, so that their number
+    # and the schedule never change the plan.
+    history_free: bool = False
 
 
 @dataclass(frozen=True)
@@ -108,7 +112,11 @@ class _BranchPlanner:
     def solver(self, horizon: int) -> BranchSolver:
         if horizon not in self.solvers:
             self.solvers[horizon] = BranchSolver(
-                self.problem.facts, horizon, self.context, skip=self.problem.skip
+                self.problem.facts,
+                horizon,
+                self.context,
+                skip=self.problem.skip,
+                history_free=self.problem.history_free,
             )
         return self.solvers[horizon]
 
@@ -176,9 +184,10 @@ class ConditionalPlanner:
         window: int = 0,
         engine: Engine | None = None,
     ) -> None:
-        self.problem = problem
         self.goal_pairs = tuple(goal_pairs)
         self.workers = workers or mp.cpu_count()
+        shared = engine is not None or self.workers > 1
+        self.problem = replace(problem, history_free=True) if shared else problem
         # States solved side by side in one round; the plan depends on it, never on
         # the number of workers or which finished first (0: two per worker).
         self.window = window or 2 * self.workers

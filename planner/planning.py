@@ -6,7 +6,7 @@ import multiprocessing as mp
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -141,6 +141,8 @@ def _plan(
 
         ray_cluster.connect(cluster)
         workers = workers or ray_cluster.cluster_cpus()
+        # Actors solve with answers that depend on the state alone (hcp.Problem).
+        problem = replace(problem, history_free=True)
         engine = ray_cluster.BranchActors(problem, workers)
     planner = ConditionalPlanner(
         problem,

@@ -36,7 +36,7 @@ def _doc(**options: Any) -> dict[str, Any]:
 
 @pytest.mark.parametrize("name", ["declared.toml", "paper/paper-03.toml"])
 def test_one_and_two_ray_actors_give_the_plan_of_local_planning(name: str, tmp_path: Path) -> None:
-    without = _doc(name=name, workers=1, cache_dir=tmp_path)
+    without = _doc(name=name, workers=2, window=2, cache_dir=tmp_path)
     one = _doc(name=name, workers=1, cluster="auto", window=2, cache_dir=tmp_path)
     two = _doc(name=name, workers=2, cluster="auto", window=2, cache_dir=tmp_path)
     assert len(without["nodes"]) > 20
@@ -47,9 +47,17 @@ def test_one_and_two_ray_actors_give_the_plan_of_local_planning(name: str, tmp_p
 def test_local_workers_give_the_same_plan_for_one_window() -> None:
     # Results are integrated per round in request order and every solve depends on
     # its state alone, so the number of processes does not change the plan.
-    assert _doc(name="paper/paper-05.toml", workers=2, window=2) == _doc(
-        name="paper/paper-05.toml", workers=1
+    assert _doc(name="paper/paper-05.toml", workers=2, window=4) == _doc(
+        name="paper/paper-05.toml", workers=3, window=4
     )
+
+
+def test_one_worker_keeps_the_solvers_defaults() -> None:
+    from planner.hcp import ConditionalPlanner, Problem
+
+    problem = Problem(("part(top)",), frozenset(), 4)
+    assert not ConditionalPlanner(problem, [], workers=1).problem.history_free
+    assert ConditionalPlanner(problem, [], workers=2).problem.history_free
 
 
 def test_a_sweep_runs_as_ray_tasks() -> None:
