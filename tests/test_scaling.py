@@ -5,13 +5,17 @@ from __future__ import annotations
 import pytest
 
 from app.benchmark.scaling import Trace, replay, trace
+from planner.planning import plan_scenario
 from planner.resources import find_scenario
 from planner.scenario import load_scenario
 
 
 def test_a_recorded_run_replays_on_one_worker_as_it_ran() -> None:
-    run = trace(load_scenario(find_scenario("declared.toml")), window=4)
+    scenario = load_scenario(find_scenario("declared.toml"))
+    run = trace(scenario, window=4)
     assert run.solves > 20 and all(len(r) <= 4 for r in run.rounds)
+    # One process with the window of two workers solves what two workers solve.
+    assert run.solves == plan_scenario(scenario, workers=2, window=4).solves
     solving = sum(map(sum, run.rounds))
     assert replay(run, 1) == pytest.approx(solving + run.integrate_s)
     assert replay(run, 4) < replay(run, 2) < replay(run, 1)
