@@ -19,7 +19,7 @@ system:
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || python3 -m venv $(VENV)
-	$(BIN)/python -m pip install -e '.[dev]'
+	$(BIN)/python -m pip install -e '.[dev,cluster]'
 	touch $@
 
 run: $(STAMP)
@@ -30,6 +30,7 @@ test: $(STAMP) system
 
 bench: $(STAMP) system
 	$(BIN)/tandem bench
+	$(BIN)/python -m app.benchmark.scaling
 	$(BIN)/python -m app.benchmark.dashboard_benchmark
 	$(BIN)/python -m app.benchmark.diagnosis_benchmark
 	$(BIN)/python -m perception.bench

@@ -11,14 +11,14 @@ it and plans its parent again; a dead end at the start state is reported.
 
 from __future__ import annotations
 
-import itertools
 import multiprocessing as mp
 import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
 from concurrent.futures import Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 from planner import walks
 from planner.encoding import FeasibilityContext
@@ -36,6 +36,10 @@ class Problem:
     reachable: frozenset[tuple[str, str]]
     horizon: int
     skip: tuple[str, ...] = ()
+    # Answers that depend on the state alone (solver.HISTORY_FREE): set by the
+    # planner whenever several processes or actors solve, so that their number
+    # and the schedule never change the plan.
+    history_free: bool = False
 
 
 @dataclass(frozen=True)
@@ -76,6 +80,14 @@ class DeadEnd(Exception):
     """No conditional plan: the start state cannot reach the goal under every outcome."""
 
 
+class Engine(Protocol):
+    """Solves branches elsewhere (e.g. `planner.cluster.BranchActors`)."""
+
+    def submit(self, state: State, forbid: frozenset[str]) -> Future[BranchResult]: ...
+
+    def close(self) -> None: ...
+
+
 @dataclass
 class Progress:
     done: int
@@ -100,7 +112,11 @@ class _BranchPlanner:
     def solver(self, horizon: int) -> BranchSolver:
         if horizon not in self.solvers:
             self.solvers[horizon] = BranchSolver(
-                self.problem.facts, horizon, self.context, skip=self.problem.skip
+                self.problem.facts,
+                horizon,
+                self.context,
+                skip=self.problem.skip,
+                history_free=self.problem.history_free,
             )
         return self.solvers[horizon]
 
@@ -165,10 +181,21 @@ class ConditionalPlanner:
         workers: int = 0,
         progress: Callable[[Progress], None] | None = None,
         on_first_branch: Callable[[dict[State, DagNode]], None] | None = None,
+        window: int = 0,
+        engine: Engine | None = None,
     ) -> None:
-        self.problem = problem
         self.goal_pairs = tuple(goal_pairs)
         self.workers = workers or mp.cpu_count()
+        shared = engine is not None or self.workers > 1
+        self.problem = replace(problem, history_free=True) if shared else problem
+        # States solved side by side in one round; the plan depends on it, never on
+        # the number of workers or which finished first (0: two per worker).
+        self.window = window or 2 * self.workers
+        self.engine = engine
+        # (round, seconds) of every solve, and the coordinator's seconds spent
+        # integrating results: enough to replay the run on more workers.
+        self.trace: list[tuple[int, float]] = []
+        self.integrate_s = 0.0
         self.progress = progress
         self.on_first_branch = on_first_branch
         self.nodes: dict[State, DagNode] = {}
@@ -196,27 +223,38 @@ class ConditionalPlanner:
         queue: deque[State] = deque([root])
         pending: dict[Future[BranchResult], State] = {}
         first_done = False
+        rounds = 0
         executor = self._executor()
         try:
             while (queue or pending) and not self.cancelled:
-                while queue and len(pending) < 2 * self.workers:
+                asked = set(pending.values())
+                while queue and len(pending) < self.window:
                     state = queue.popleft()
                     node = self.nodes.get(state)
                     if node is None or node.action is not None or node.goal:
                         continue
-                    if state in pending.values():
+                    if state in asked:
                         continue
+                    asked.add(state)
                     pending[executor(state, frozenset(node.forbidden))] = state
                 if not pending:
                     continue
-                # Results are taken in the order they were asked for, so the
-                # DAG does not depend on which worker finished first: with
-                # one worker a scenario always gives the same plan.
-                wait([next(iter(pending))], timeout=0.2)
-                done = list(itertools.takewhile(Future.done, pending))
+                # A round's results are integrated together, in the order they
+                # were asked for, so the DAG depends on neither the number of
+                # workers nor which finished first: a scenario and a window
+                # always give the same plan.
+                wait(list(pending), timeout=0.2)
+                if not all(f.done() for f in pending):
+                    if self.progress:
+                        self.progress(self._progress(len(queue) + len(pending), t0))
+                    continue
+                done = list(pending)
+                rounds += 1
+                t_round = time.perf_counter()
                 for fut in done:
                     del pending[fut]
                     result = fut.result()
+                    self.trace.append((rounds, result.solve_s))
                     self.solves += 1
                     self.solve_s += result.solve_s
                     self.checks += result.checks
@@ -229,6 +267,7 @@ class ConditionalPlanner:
                         first_done = True
                         if self.on_first_branch:
                             self.on_first_branch(self.nodes)
+                self.integrate_s += time.perf_counter() - t_round
                 if self.progress:
                     self.progress(self._progress(len(queue) + len(pending), t0))
         finally:
@@ -239,6 +278,8 @@ class ConditionalPlanner:
 
     # -- execution backends
     def _executor(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
+        if self.engine is not None:
+            return self.engine.submit
         if self.workers <= 1:
             planner = _BranchPlanner(self.problem)
 
@@ -262,6 +303,8 @@ class ConditionalPlanner:
         return remote
 
     def _shutdown(self) -> None:
+        if self.engine is not None:
+            self.engine.close()
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None

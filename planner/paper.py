@@ -81,11 +81,11 @@ def instance_name(family: str, n: int) -> str:
     return f"paper-{number:02d}" if number is not None else f"{family}{n:02d}"
 
 
-def all_instances(families: bool = True) -> list[tuple[str, int]]:
-    """(family, n) in benchmark order: the paper's 15, then the continuations."""
+def all_instances(families: bool = True, to: int = CONTINUED_N[-1]) -> list[tuple[str, int]]:
+    """(family, n) in benchmark order: the paper's 15, then the continuations up to n=`to`."""
     out = [(f, n) for f in FAMILIES for n in PAPER_N]
     if families:
-        out += [(f, n) for f in FAMILIES for n in CONTINUED_N]
+        out += [(f, n) for f in FAMILIES for n in range(CONTINUED_N[0], to + 1)]
     return out
 
 
@@ -163,8 +163,15 @@ def description(family: str, n: int) -> str:
     return f"family {family}, n={n}: {n} {WHAT[family]}; {where}"
 
 
-def scenario_toml(family: str, n: int) -> str:
-    """The scenario file of instance (family, n), as TOML text."""
+def scenario_toml(family: str, n: int, feasibility: str = "geometry") -> str:
+    """The scenario file of instance (family, n), as TOML text.
+
+    `feasibility = "declared"` writes the table the bench's layout is built for
+    instead of asking the motion planner: each arm reaches the robot-only parts,
+    the top and the shared parts on its own side (y > 0 is the left arm's).
+    """
+    if feasibility not in ("geometry", "declared"):
+        raise ValueError(f"feasibility must be geometry or declared, not {feasibility!r}")
     loose = parts_of(family, n)
     legs = [p for p in loose if p.kind == "leg"]
     out = [
@@ -185,18 +192,30 @@ def scenario_toml(family: str, n: int) -> str:
         'manipulators = ["left", "right"]',
         "",
         "[feasibility]",
-        # Which arm reaches which part is decided by the motion planner.
-        'source = "geometry"',
     ]
+    spots: dict[str, list[tuple[float, float]]] = {}
+    for rid, *_ in REGIONS:
+        spots[rid] = _layout(sum(p.region == rid for p in loose), rid)[::-1]
+    placed: dict[str, tuple[float, float]] = {}
+    for part in loose:
+        placed[part.id] = spots[part.region].pop()
+    if feasibility == "geometry":
+        # Which arm reaches which part is decided by the motion planner.
+        out += ['source = "geometry"']
+    else:
+        shared = [p.id for p in loose if p.region == "shared"]
+        out += ['source = "declared"', "", "[feasibility.reachable]"]
+        out += ['left = ["robotOnly", "shared"]', 'right = ["robotOnly", "shared"]']
+        out += ["", "[feasibility.unreachable_parts]"]
+        for arm, side in (("left", -1.0), ("right", 1.0)):
+            ids = ", ".join(f'"{pid}"' for pid in shared if placed[pid][1] * side > 0)
+            out += [f"{arm} = [{ids}]"]
     connections = ", ".join(f'"c{i}"' for i in range(1, len(legs) + 1))
     out += ["", "[[parts]]", 'id = "top"', 'kind = "top"', 'region = "shared"']
     out += [f"connections = [{connections}]", f"pose = {_vec(TOP_POSE)}"]
     out += [f"size = {_vec(TOP_SIZE)}", "marker = 1"]
-    spots: dict[str, list[tuple[float, float]]] = {}
-    for rid, *_ in REGIONS:
-        spots[rid] = _layout(sum(p.region == rid for p in loose), rid)[::-1]
     for marker, part in enumerate(loose, start=2):
-        x, y = spots[part.region].pop()
+        x, y = placed[part.id]
         out += ["", "[[parts]]", f'id = "{part.id}"', f'kind = "{part.kind}"']
         if part.kind == "leg":
             out += ['length = "tall"']

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -44,10 +45,13 @@ def initial_state(scenario: Scenario) -> State:
 
 
 @contextmanager
-def bench_checks(scenario: Scenario, cache_dir: Path | str | None) -> Iterator[BenchChecks | None]:
+def bench_checks(
+    scenario: Scenario, cache_dir: Path | str | None, workers: int = 1
+) -> Iterator[BenchChecks | None]:
     """The geometric checks of a scenario whose feasibility source is geometry, else None.
 
-    `cache_dir`: where the check cache lives (None: the default, ":memory:": none).
+    `cache_dir`: where the check cache lives (None: the default, ":memory:": none);
+    `workers`: processes that answer cache misses (0: one per core).
     """
     if scenario.feasibility.source != "geometry":
         yield None
@@ -56,7 +60,10 @@ def bench_checks(scenario: Scenario, cache_dir: Path | str | None) -> Iterator[B
     from planner.feasibility.cache import CheckCache
     from planner.feasibility.checks import BenchChecks
 
-    with CheckCache(cache_dir) as cache, BenchChecks(scenario, cache=cache) as checks:
+    workers = workers or mp.cpu_count()
+    with CheckCache(cache_dir) as cache, BenchChecks(
+        scenario, cache=cache, workers=workers
+    ) as checks:
         yield checks
 
 
@@ -85,6 +92,9 @@ def plan_scenario(
     planner_hook: Callable[[ConditionalPlanner], None] | None = None,
     skip: tuple[str, ...] = (),
     cache_dir: Path | str | None = None,
+    check_workers: int | None = None,
+    cluster: str | None = None,
+    window: int = 0,
     start: State | None = None,
 ) -> PlanResult:
     """Plans every contingency of `scenario`; raises `hcp.DeadEnd` if no plan exists.
@@ -94,10 +104,17 @@ def plan_scenario(
 
     `planner_hook` receives the planner before it starts (to cancel it from
     another thread); `skip` leaves encoding concerns out (for ablation tests);
-    `cache_dir` is where geometric checks are cached (see `bench_checks`).
+    `cache_dir` is where geometric checks are cached (see `bench_checks`), and
+    `check_workers` how many processes check geometry (None: as many as `workers`).
+    `cluster` ("auto", "ray://HOST:PORT") solves branches on Ray actors, `workers`
+    of them (0: one per CPU of the cluster); `window` is how many states are
+    solved side by side (0: two per worker; the plan depends on it alone).
     """
-    with bench_checks(scenario, cache_dir) as checks:
-        return _plan(scenario, checks, workers, progress, planner_hook, skip, start)
+    checkers = workers if check_workers is None else check_workers
+    with bench_checks(scenario, cache_dir, checkers or (1 if cluster else 0)) as checks:
+        return _plan(
+            scenario, checks, workers, progress, planner_hook, skip, cluster, window, start
+        )
 
 
 def _plan(
@@ -107,6 +124,8 @@ def _plan(
     progress: Callable[[Progress], None] | None,
     planner_hook: Callable[[ConditionalPlanner], None] | None,
     skip: tuple[str, ...],
+    cluster: str | None = None,
+    window: int = 0,
     start: State | None = None,
 ) -> PlanResult:
     t0 = time.perf_counter()
@@ -125,8 +144,24 @@ def _plan(
     def on_first(_: dict[State, DagNode]) -> None:
         first.append(time.perf_counter() - t0)
 
+    engine = None
+    if cluster is not None:
+        # Imported only here: without --cluster, Ray is never loaded.
+        from planner import cluster as ray_cluster
+
+        ray_cluster.connect(cluster)
+        workers = workers or ray_cluster.cluster_cpus()
+        # Actors solve with answers that depend on the state alone (hcp.Problem).
+        problem = replace(problem, history_free=True)
+        engine = ray_cluster.BranchActors(problem, workers)
     planner = ConditionalPlanner(
-        problem, scenario.goal_pairs(), workers=workers, progress=progress, on_first_branch=on_first
+        problem,
+        scenario.goal_pairs(),
+        workers=workers,
+        progress=progress,
+        on_first_branch=on_first,
+        window=window,
+        engine=engine,
     )
     if planner_hook:
         planner_hook(planner)

@@ -18,6 +18,14 @@ import clingo
 from planner.encoding import FeasibilityContext, ground
 from planner.vocabulary import Action, State, parse_action
 
+# clasp keeps heuristic scores and learnt constraints from one solve to the next,
+# so among equally good plans the one returned depends on which states the
+# process solved before. With several workers that history depends on the
+# schedule; a static decision order and forgetting everything between solves
+# make each answer a function of its state alone (and large instances faster:
+# lemmas no longer pile up). One worker keeps clasp's defaults, and its plans.
+HISTORY_FREE = ("--heuristic=None", "--forget-on-step=varScores,signs,lemmaScores,lemmas")
+
 
 @dataclass(frozen=True)
 class Step:
@@ -54,10 +62,15 @@ class BranchSolver:
     context: FeasibilityContext
     skip: tuple[str, ...] = ()
     options: tuple[str, ...] = ()
+    history_free: bool = False  # see HISTORY_FREE
 
     def __post_init__(self) -> None:
         self._plan_ctl = ground(
-            self.facts, self.horizon, self.context, skip=self.skip, options=self.options
+            self.facts,
+            self.horizon,
+            self.context,
+            skip=self.skip,
+            options=(*(HISTORY_FREE if self.history_free else ()), *self.options),
         )
         # Assumptions are passed as solver literals, looked up once: symbol
         # assumptions cost a symbol-table lookup each on every solve.

@@ -110,11 +110,16 @@ class Instance:
     paper_instance: int | None
 
 
-def instances(only: Sequence[str] = (), families: bool = True) -> list[Instance]:
-    """Benchmark order; `only` (names) overrides `families`. Raises KeyError on an unknown name."""
+def instances(
+    only: Sequence[str] = (), families: bool = True, families_to: int = 10
+) -> list[Instance]:
+    """Benchmark order; `only` (names) overrides `families`. Raises KeyError on an unknown name.
+
+    The families continue past the paper up to n = `families_to`; names in `only`
+    may name any n (U18)."""
     every = [
         Instance(paper.instance_name(f, n), f, n, paper.instance_number(f, n))
-        for f, n in paper.all_instances(families=True)
+        for f, n in paper.all_instances(families=True, to=families_to if not only else 99)
     ]
     if not only:
         return [i for i in every if families or i.paper_instance is not None]
@@ -126,12 +131,17 @@ def instances(only: Sequence[str] = (), families: bool = True) -> list[Instance]
     return [i for i in every if i.name in wanted]
 
 
-def load(instance: Instance, directory: Path = SCENARIO_DIR) -> Scenario:
-    """The committed file if there is one, else the generator's text (identical by test)."""
+def load(
+    instance: Instance, directory: Path = SCENARIO_DIR, feasibility: str = "geometry"
+) -> Scenario:
+    """The committed file if there is one, else the generator's text (identical by test).
+
+    `feasibility = "declared"`: the generator's declared table instead of geometry."""
     path = directory / f"{instance.name}.toml"
-    if path.exists():
+    if feasibility == "geometry" and path.exists():
         return load_scenario(path)
-    return parse_scenario(paper.scenario_toml(instance.family, instance.n), f"{instance.name}")
+    text = paper.scenario_toml(instance.family, instance.n, feasibility)
+    return parse_scenario(text, f"{instance.name}")
 
 
 @dataclass
@@ -185,14 +195,19 @@ class BenchmarkRow:
 
 
 def run_instance(
-    instance: Instance, *, workers: int = 0, repeat: int = 1, directory: Path = SCENARIO_DIR
+    instance: Instance,
+    *,
+    workers: int = 0,
+    repeat: int = 1,
+    directory: Path = SCENARIO_DIR,
+    feasibility: str = "geometry",
 ) -> BenchmarkRow:
     """Plans `instance` `repeat` times; statistics and audit come from the median-time run.
 
     Each run starts with an empty check cache (a cold run, timed), then plans again
     with the cache it filled, which gives the cached check time.
     """
-    scenario = load(instance, directory)
+    scenario = load(instance, directory, feasibility)
     row = BenchmarkRow(instance)
     runs = []
     cold: list[float] = []
@@ -241,11 +256,14 @@ def run(
     workers: int = 0,
     repeat: int = 1,
     directory: Path = SCENARIO_DIR,
+    feasibility: str = "geometry",
     report: Callable[[int, BenchmarkRow], None] | None = None,
 ) -> list[BenchmarkRow]:
     rows = []
     for i, instance in enumerate(selected):
-        row = run_instance(instance, workers=workers, repeat=repeat, directory=directory)
+        row = run_instance(
+            instance, workers=workers, repeat=repeat, directory=directory, feasibility=feasibility
+        )
         rows.append(row)
         if report:
             report(i, row)

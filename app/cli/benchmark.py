@@ -28,16 +28,33 @@ def register(parser: argparse.ArgumentParser) -> None:
         help="only the paper's 15 instances, not the families continued to n=10",
     )
     parser.add_argument(
+        "--families-to",
+        type=int,
+        default=10,
+        metavar="N",
+        help="continue the families U, P, R past the paper up to n=N (default 10)",
+    )
+    parser.add_argument(
+        "--feasibility",
+        choices=("geometry", "declared"),
+        default="geometry",
+        help="reachability from the motion planner, or from the layout's declared table",
+    )
+    parser.add_argument(
         "--repeat", type=int, default=1, metavar="K", help="plan each instance K times (median)"
     )
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.repeat < 1 or args.workers < 0:
-        raise BadInput("tandem bench: --repeat must be >= 1 and --workers >= 0")
+    if args.repeat < 1 or args.workers < 0 or args.families_to < 2:
+        raise BadInput(
+            "tandem bench: --repeat must be >= 1, --workers >= 0 and --families-to >= 2"
+        )
     try:
-        selected = planner_benchmark.instances(args.only, families=not args.no_families)
+        selected = planner_benchmark.instances(
+            args.only, families=not args.no_families, families_to=args.families_to
+        )
     except KeyError as err:
         known = ", ".join(i.name for i in planner_benchmark.instances())
         raise BadInput(f"tandem bench: unknown instance {err.args[0]} (known: {known})") from err
@@ -52,7 +69,11 @@ def run(args: argparse.Namespace) -> int:
         )
 
     rows = planner_benchmark.run(
-        selected, workers=args.workers, repeat=args.repeat, report=progress
+        selected,
+        workers=args.workers,
+        repeat=args.repeat,
+        feasibility=args.feasibility,
+        report=progress,
     )
     if args.json:
         print(json.dumps([r.as_dict() for r in rows], indent=1))

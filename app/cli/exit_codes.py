@@ -13,6 +13,7 @@ import argparse
 from app.outcomes import ScriptError
 from app.session_db import StoreError
 from app.store import UnknownSession
+from planner.cluster import ClusterUnavailable
 from planner.hcp import DeadEnd
 from planner.scenario import ScenarioError
 
@@ -29,6 +30,7 @@ EXIT_CODES: tuple[tuple[type[Exception], int], ...] = (
     (DeadEnd, FAILED),
     (ScenarioError, BAD_INPUT),
     (BadInput, BAD_INPUT),
+    (ClusterUnavailable, BAD_INPUT),
     (ScriptError, BAD_INPUT),
     (UnknownSession, BAD_INPUT),
     (StoreError, BAD_INPUT),

@@ -30,6 +30,7 @@ from app.cli import (
     say,
     scenario,
     sessions,
+    sweep,
     track,
 )
 from app.cli.exit_codes import BAD_INPUT, HANDLED, exit_code, message
@@ -41,6 +42,7 @@ SUBCOMMANDS: list[tuple[str, str, Register]] = [
     ("plan", "plan every contingency of a scenario", plan.register),
     ("check", "audit a plan file by re-simulating every branch", check.register),
     ("bench", "plan and audit the paper's benchmark instances", benchmark.register),
+    ("sweep", "plan scenarios under varied settings: CSV and plot", sweep.register),
     ("feasibility", "which arm reaches which part, by geometry", feasibility.register),
     ("dashboard", "the browser dashboard: bench, planning, plan tree", dashboard.register),
     ("execute", "run a plan, one branch", execute.register),

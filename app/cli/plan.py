@@ -33,6 +33,19 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--no-cache", action="store_true", help="check geometry afresh and store nothing"
     )
+    parser.add_argument(
+        "--cluster",
+        metavar="auto|ray://HOST:PORT",
+        help="solve branches on Ray actors (auto: this machine's cluster, or a local one); "
+        "--workers actors (0: one per cluster CPU). Needs tandem[cluster]",
+    )
+    parser.add_argument(
+        "--window",
+        type=int,
+        default=0,
+        help="states solved side by side per round (0: two per worker); the plan depends "
+        "on it, not on the number of workers",
+    )
     parser.set_defaults(run=run)
 
 
@@ -55,7 +68,12 @@ def run(args: argparse.Namespace) -> int:
     try:
         cache_dir = ":memory:" if args.no_cache else args.cache_dir
         result = plan_scenario(
-            scenario, workers=args.workers, progress=progress, cache_dir=cache_dir
+            scenario,
+            workers=args.workers,
+            progress=progress,
+            cache_dir=cache_dir,
+            cluster=args.cluster,
+            window=args.window,
         )
     finally:
         if progress:

@@ -20,7 +20,7 @@ from planner.feasibility.scene import part_boxes, region_extents
 from planner.scenario_model import Scenario
 
 # Bump when reach.py, path_planner.py, robot.py or scene.py change what a check returns.
-MODEL_VERSION = 3
+MODEL_VERSION = 5
 FILE_NAME = "feasibility.sqlite"
 
 

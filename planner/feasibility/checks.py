@@ -1,19 +1,26 @@
 """Feasibility checks of one bench, answered from the cache or the motion planner.
 
-`BenchChecks` opens a pybullet `World` only on the first cache miss, so a plan
-whose checks are all cached loads neither the robot nor OMPL's planners.
+`BenchChecks` opens a pybullet `World` (or, with `workers` > 1, a `CheckPool` of
+processes) only on the first cache miss, so a plan whose checks are all cached
+loads neither the robot nor OMPL's planners. `prefetch_reach` and `prefetch_moves`
+ask for many answers at once, so the pool works on them side by side; answers
+go into the cache in the order they are asked for, not the order they finish.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from concurrent.futures import Future
 from typing import Any
 
 from planner.feasibility.arms import ARMS, HOME
 from planner.feasibility.cache import CheckCache, geometry_key
+from planner.feasibility.check_pool import CheckPool
 from planner.feasibility.reach import PlannerName, ReachResult, World
 from planner.scenario_model import Scenario
 
 Config = list[float]
+Move = tuple[str, str, str]  # arm, from part, to part (neither home)
 
 
 class BenchChecks:
@@ -27,6 +34,7 @@ class BenchChecks:
         time_limit: float = 1.0,
         seed: int = 0,
         cache: CheckCache | None = None,
+        workers: int = 1,
     ) -> None:
         unknown = [m for m in scenario.robot.manipulators if m not in ARMS]
         if unknown:
@@ -36,7 +44,11 @@ class BenchChecks:
         self.cache = cache if cache is not None else CheckCache(":memory:")
         self.key = geometry_key(scenario, **self._options)
         self._world: World | None = None
+        self._workers = workers
+        self._pool: CheckPool | None = None
         self._reach: dict[tuple[str, str], ReachResult] = {}
+        self._reach_pending: dict[tuple[str, str], Future[ReachResult]] = {}
+        self._move_pending: dict[Move, Future[list[Config] | None]] = {}
 
     @property
     def world(self) -> World:
@@ -44,10 +56,20 @@ class BenchChecks:
             self._world = World(self.scenario, **self._options)
         return self._world
 
+    @property
+    def pool(self) -> CheckPool | None:
+        """The worker processes (None with one worker), started on first need."""
+        if self._pool is None and self._workers > 1:
+            self._pool = CheckPool(self.scenario, self._options, self._workers)
+        return self._pool
+
     def close(self) -> None:
         if self._world is not None:
             self._world.close()
             self._world = None
+        if self._pool is not None:
+            self._pool.close()
+            self._pool = None
 
     def __enter__(self) -> BenchChecks:
         return self
@@ -60,22 +82,41 @@ class BenchChecks:
         if (arm, part) in self._reach:
             return self._reach[(arm, part)]
         key = f"{self.key}/reach/{arm}/{part}"
-        stored = self.cache.get(key)
-        if stored is not None:
-            result = ReachResult(**stored)
-        else:
-            result = self.world.check_reach(arm, part)
+        pending = self._reach_pending.pop((arm, part), None)
+        if pending is not None:
+            result = pending.result()
             self.cache.put(key, result.__dict__)
+        else:
+            stored = self.cache.get(key)
+            if stored is not None:
+                result = ReachResult(**stored)
+            else:
+                result = self.world.check_reach(arm, part)
+                self.cache.put(key, result.__dict__)
         self._reach[(arm, part)] = result
         return result
 
+    def prefetch_reach(self, pairs: Iterable[tuple[str, str]]) -> None:
+        """Starts the checks of `pairs` that are neither known nor cached, in the pool."""
+        for arm, part in pairs:
+            if (arm, part) in self._reach or (arm, part) in self._reach_pending:
+                continue
+            stored = self.cache.get(f"{self.key}/reach/{arm}/{part}")
+            if stored is not None:
+                self._reach[(arm, part)] = ReachResult(**stored)
+            elif self.pool is not None:
+                self._reach_pending[(arm, part)] = self.pool.reach(arm, part)
+
+    def pairs(self) -> list[tuple[str, str]]:
+        """Every (arm, part) pair, in file order: movable parts and the top alike."""
+        arms, parts = self.scenario.robot.manipulators, self.scenario.parts
+        return [(arm, p.id) for arm in arms for p in parts]
+
     def table(self) -> dict[tuple[str, str], ReachResult]:
         """Every (arm, part) pair, in file order: movable parts and the top alike."""
-        return {
-            (arm, part.id): self.reach(arm, part.id)
-            for arm in self.scenario.robot.manipulators
-            for part in self.scenario.parts
-        }
+        pairs = self.pairs()
+        self.prefetch_reach(pairs)
+        return {pair: self.reach(*pair) for pair in pairs}
 
     def at(self, arm: str, part: str | None) -> Config:
         """Where `arm` stands when working on `part` (None: home)."""
@@ -95,15 +136,33 @@ class BenchChecks:
         if goal is None:
             return self._reach_path(arm, start)[::-1]
         key = f"{self.key}/move/{arm}/{start}/{goal}"
-        stored = self.cache.get(key)
-        if stored is not None:
-            return list(stored)
-        direct = self.world.move(
-            arm, self.at(arm, start), self.at(arm, goal), frozenset({start, goal})
-        )
+        pending = self._move_pending.pop((arm, start, goal), None)
+        if pending is not None:
+            direct = pending.result()
+        else:
+            stored = self.cache.get(key)
+            if stored is not None:
+                return list(stored)
+            direct = self.world.move(
+                arm, self.at(arm, start), self.at(arm, goal), frozenset({start, goal})
+            )
         path = direct or self._reach_path(arm, start)[::-1] + self._reach_path(arm, goal)[1:]
         self.cache.put(key, path)
         return path
+
+    def prefetch_moves(self, moves: Iterable[Move]) -> None:
+        """Starts the part-to-part motions of `moves` that are not cached, in the pool."""
+        for arm, start, goal in moves:
+            if start == goal or (arm, start, goal) in self._move_pending:
+                continue
+            # The cache first: a plan whose motions are all cached starts no process.
+            if self.cache.get(f"{self.key}/move/{arm}/{start}/{goal}") is not None:
+                continue
+            if self.pool is None:
+                return
+            self._move_pending[(arm, start, goal)] = self.pool.move(
+                arm, self.at(arm, start), self.at(arm, goal), frozenset({start, goal})
+            )
 
     def _reach_path(self, arm: str, part: str) -> list[Config]:
         path = self.reach(arm, part).path

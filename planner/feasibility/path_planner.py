@@ -87,8 +87,10 @@ def plan_path(
     ss.solve(time_limit)
     if not ss.haveExactSolutionPath():
         return None
-    ss.simplifySolution(min(0.05, time_limit))
     path = ss.getSolutionPath()
+    # Simplified to convergence rather than for a time budget: a timed simplifier
+    # returns a different path on a busier machine, and checks now run on every core.
+    ss.getPathSimplifier().simplifyMax(path)
     states = [[float(path.getState(k)[i]) for i in range(n)] for k in range(path.getStateCount())]
     return _densify(states)
 

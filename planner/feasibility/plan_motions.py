@@ -24,11 +24,17 @@ DECIMALS = 4  # 0.1 mrad: far below what the arm can resolve; keeps plan files s
 def add_motions(plan: Plan, checks: BenchChecks) -> int:
     """Adds its `motion` to every actuation node of `plan`; returns how many distinct
     motions the plan uses."""
+    nodes = [
+        (node, _endpoints(node.action, node.state, checks))
+        for node in plan.nodes.values()
+        if node.kind == "actuation" and node.action is not None
+    ]
+    # Part-to-part motions are asked for all at once, so the pool plans them side by side.
+    checks.prefetch_moves(
+        (arm, start, goal) for _, (arm, start, goal) in nodes if start is not None and goal
+    )
     seen: dict[tuple[str, str | None, str | None], list[list[float]]] = {}
-    for node in plan.nodes.values():
-        if node.kind != "actuation" or node.action is None:
-            continue
-        arm, start, goal = _endpoints(node.action, node.state, checks)
+    for node, (arm, start, goal) in nodes:
         if (arm, start, goal) not in seen:
             path = checks.move(arm, start, goal)
             seen[(arm, start, goal)] = [[round(v, DECIMALS) for v in q] for q in path]

@@ -1,0 +1,77 @@
+"""Checks answered by several processes, and the declared tables of the paper's layout."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from planner import paper
+from planner.feasibility import BenchChecks, CheckCache
+from planner.feasibility.plan_motions import add_motions
+from planner.planning import plan_scenario
+from planner.scenario import load_scenario, parse_scenario
+
+PAPER_DIR = Path("static/scenarios/paper")
+
+
+@pytest.mark.parametrize("name", ["paper-05", "paper-15"])
+def test_two_check_processes_answer_as_one(name: str) -> None:
+    scenario = load_scenario(PAPER_DIR / f"{name}.toml")
+    with BenchChecks(scenario) as one, BenchChecks(scenario, workers=2) as two:
+        alone = one.table()
+        pooled = two.table()
+        assert two.pool is not None and one.pool is None
+    assert list(pooled) == list(alone)  # file order, whatever finished first
+    for pair, result in alone.items():
+        got = pooled[pair]
+        assert (got.reachable, got.reason) == (result.reachable, result.reason)
+        assert got.path == result.path
+
+
+def test_motions_from_the_pool_are_those_of_one_process(tmp_path: Path) -> None:
+    scenario = load_scenario(PAPER_DIR / "paper-03.toml")
+    plan = plan_scenario(scenario, workers=1, cache_dir=tmp_path / "first").plan
+    with CheckCache(":memory:") as c1, BenchChecks(scenario, cache=c1) as one:
+        alone = plan.model_copy(deep=True)
+        n_alone = add_motions(alone, one)
+    with CheckCache(":memory:") as c2, BenchChecks(scenario, cache=c2, workers=2) as two:
+        pooled = plan.model_copy(deep=True)
+        n_pooled = add_motions(pooled, two)
+    assert n_alone == n_pooled > 5
+    assert pooled.to_json()["nodes"] == alone.to_json()["nodes"]
+
+
+def test_plans_are_the_same_with_cold_and_warm_caches_when_checks_run_in_parallel(
+    tmp_path: Path,
+) -> None:
+    scenario = load_scenario(PAPER_DIR / "paper-05.toml")
+    # Two check processes, one planning worker (one worker's plan is reproducible).
+    cold = plan_scenario(scenario, workers=1, check_workers=2, cache_dir=tmp_path).plan
+    with CheckCache(tmp_path) as cache, BenchChecks(scenario, cache=cache) as checks:
+        checks.table()
+        assert cache.misses == 0 and cache.hits > 0
+    warm = plan_scenario(scenario, workers=1, check_workers=2, cache_dir=tmp_path).plan
+    cold_doc, warm_doc = cold.to_json(), warm.to_json()
+    assert any(n.get("motion") for n in cold_doc["nodes"].values())
+    for doc in (cold_doc, warm_doc):
+        doc["stats"] = {k: v for k, v in doc["stats"].items() if not k.endswith("_s")}
+    assert cold_doc == warm_doc
+
+
+@pytest.mark.parametrize(("family", "n"), [("U", 2), ("P", 2), ("R", 3)])
+def test_the_declared_table_is_what_geometry_finds(family: str, n: int) -> None:
+    geometric = parse_scenario(paper.scenario_toml(family, n), "geometry")
+    declared = parse_scenario(paper.scenario_toml(family, n, "declared"), "declared")
+    assert declared.feasibility.source == "declared"
+    with BenchChecks(geometric, workers=2) as checks:
+        found = {pair for pair, r in checks.table().items() if r.reachable}
+    assert declared.reachable_pairs() == found
+
+
+def test_families_continue_to_any_size() -> None:
+    assert paper.all_instances(to=18)[-1] == ("R", 18)
+    u18 = parse_scenario(paper.scenario_toml("U", 18, "declared"), "U18")
+    assert sum(p.dangerous for p in u18.parts) == 18
+    with pytest.raises(ValueError, match="feasibility"):
+        paper.scenario_toml("U", 3, "maybe")
