@@ -62,13 +62,21 @@ def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
     d.close()
 
 
-@pytest.fixture(scope="module")
-def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
-    page = browser.new_page(viewport={"width": 1400, "height": 900})
+def open_page(
+    browser: Browser, dashboard: Dashboard, ready: str = "Tandem", height: int = 900
+) -> Page:
+    """A page of `dashboard` once the server knows it and `ready` shows."""
+    page = browser.new_page(viewport={"width": 1400, "height": height})
     page.goto(f"http://127.0.0.1:{dashboard.server.get_port()}")
     # "Connected" can show before the server knows the client (field notes).
     wait_for(lambda: dashboard.server.get_clients())
-    page.get_by_text("Tandem", exact=False).first.wait_for()
+    page.get_by_text(ready, exact=ready != "Tandem").first.wait_for()
+    return page
+
+
+@pytest.fixture(scope="module")
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
+    page = open_page(browser, dashboard)
     yield page
     page.close()
 

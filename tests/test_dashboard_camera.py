@@ -19,7 +19,15 @@ from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
 from app.dashboard.camera_panel import VIEW_WIDTH  # noqa: E402
 from app.dashboard.server import Dashboard  # noqa: E402
 from perception.annotate import PART_COLOUR, REFERENCE_COLOUR  # noqa: E402
-from tests.test_dashboard import ARTIFACTS, CHROMIUM, free_port, plan_shown, shot, wait_for  # noqa: E402
+from tests.test_dashboard import (  # noqa: E402
+    ARTIFACTS,
+    CHROMIUM,
+    free_port,
+    open_page,
+    plan_shown,
+    shot,
+    wait_for,
+)
 
 
 @pytest.fixture(scope="module")
@@ -46,10 +54,7 @@ def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
 
 @pytest.fixture(scope="module")
 def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
-    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-    page.goto(f"http://127.0.0.1:{dashboard.server.get_port()}")
-    wait_for(lambda: dashboard.server.get_clients())
-    page.get_by_text("Tandem", exact=False).first.wait_for()
+    page = open_page(browser, dashboard, "Tandem", height=1000)
     yield page
     page.close()
 

@@ -17,7 +17,7 @@ from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
 
 from app.dashboard.server import Dashboard  # noqa: E402
 from tests.plan_fixtures import KOREAN_DEFAULT  # noqa: E402
-from tests.test_dashboard import free_port, plan_shown, shot, wait_for  # noqa: E402
+from tests.test_dashboard import free_port, open_page, plan_shown, shot, wait_for  # noqa: E402
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 AUDIO_SRC = re.compile(r'<audio autoplay[^>]*src="data:audio/(wav|mpeg);base64,([A-Za-z0-9+/=]+)"')
@@ -50,10 +50,7 @@ def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
 
 @pytest.fixture(scope="module")
 def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
-    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-    page.goto(f"http://127.0.0.1:{dashboard.server.get_port()}")
-    wait_for(lambda: dashboard.server.get_clients())
-    page.get_by_text("Answers by", exact=True).first.wait_for()
+    page = open_page(browser, dashboard, "Answers by", height=1000)
     yield page
     page.close()
 
