@@ -5,8 +5,12 @@ estimate has been stable for a few frames, then maps it onto one of the node's
 outcome labels (`outcome_of`). It has no answer (None, so the fallback answers)
 at a node that is not a sensing node, when the estimate does not settle before
 the timeout or the frames end, and when what it sees fits none of the options;
-`last_observation` says which, for the panel. With a simulated human, the human
-acts first, and the camera then has to see what it did.
+`last_observation` says which, for the panel. When the view shows that the
+person did what no outcome expects (took a part the plan did not count on, put
+the part down instead of attaching it, attached it to another part), the
+answer is a surprise: the executor plans again from what was seen (app.repair).
+With a simulated human, the human acts first, and the camera then has to see
+what it did.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import numpy.typing as npt
 
 from app.outcomes import Evidence, Node, Outcome, describe
 from app.simulated_human import SimulatedHuman
+from app.surprises import Surprise
 from perception.frames import Frame, FrameSource
 from perception.pipeline import BenchPerception
 from perception.world import Placement, Where, WorldEstimate
@@ -39,11 +44,13 @@ JPEG_QUALITY = 80
 
 @dataclass(frozen=True)
 class Reading:
-    """An estimate mapped onto a node: the label it fits (or None, and why)."""
+    """An estimate mapped onto a node: the label it fits (or None, and why), or what
+    the person did that no outcome of the node expects (`surprise`)."""
 
     label: str | None
     confidence: float
     reason: str
+    surprise: Surprise | None = None
 
 
 @dataclass(frozen=True)
@@ -73,6 +80,9 @@ def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[st
     match action:
         case SenseHumanHolding():
             label = "yes" if human.holding else "no"
+            if human.holding and "yes" not in options:
+                # The plan counted on no more initiative: the human took a part anyway.
+                return _took(human.holding[0], human.confidence)
             words = (
                 f"the human holds {', '.join(human.holding)}"
                 if human.holding
@@ -84,10 +94,7 @@ def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[st
                 return Reading(None, human.confidence, "the human's hands look free")
             held = [p for p in human.holding if p in options]
             if not held:
-                return Reading(
-                    None, human.confidence,
-                    f"the human holds {', '.join(human.holding)}, not one of the options",
-                )
+                return _took(human.holding[0], human.confidence)
             return Reading(held[0], world.parts[held[0]].confidence, f"the human holds {held[0]}")
         case SenseHumanUnholding(part):
             est = world.parts.get(part)
@@ -106,8 +113,19 @@ def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[st
             p = est.placement
             if p.where is Where.ATTACHED and p.attached_to == onto and p.slot is not None:
                 return _fit(p.slot, est.confidence, f"{part} is on {onto} at {p.slot}", options)
-            return Reading(None, est.confidence, f"{part} is {where_words(p)}, not on {onto}")
+            words = f"{part} is {where_words(p)}, not on {onto}"
+            if p.where is Where.ATTACHED and p.attached_to is not None and p.slot is not None:
+                surprise = Surprise("attach", (part, p.attached_to, p.slot))
+                return Reading(None, est.confidence, words, surprise)
+            if p.where is Where.ON_BENCH:
+                return Reading(None, est.confidence, words, Surprise("putdown", (part,)))
+            return Reading(None, est.confidence, words)
     return Reading(None, 0.0, "not a sensing node")
+
+
+def _took(part: str, confidence: float) -> Reading:
+    words = f"the human holds {part}, which no outcome here expects"
+    return Reading(None, confidence, words, Surprise("take", (part,)))
 
 
 def _fit(label: str, confidence: float, words: str, options: Sequence[str]) -> Reading:
@@ -162,6 +180,29 @@ def camera_outcome(
     )
 
 
+def camera_surprise(
+    reading: Reading, world: WorldEstimate, frame: Frame, frames: int, seconds: float,
+    picture: bytes,
+) -> Outcome:
+    """What the camera saw that fits no outcome: the executor plans again from it."""
+    assert reading.surprise is not None
+    detail: dict[str, Any] = {
+        "camera": {
+            "surprise": str(reading.surprise),
+            "confidence": round(reading.confidence, 3),
+            "reason": reading.reason,
+            "frames": frames,
+            "frame_index": frame.index,
+            "seconds": round(seconds, 3),
+            "placements": placements(world),
+        }
+    }
+    return Outcome(
+        "", "camera", round(reading.confidence, 3), f"camera: {reading.reason}",
+        Evidence(detail, picture), surprise=reading.surprise,
+    )
+
+
 def jpeg(frame: Frame, width: int = JPEG_WIDTH, quality: int = JPEG_QUALITY) -> bytes:
     """A small JPEG of a frame, for the session store and the review."""
     h, w = frame.image.shape[:2]
@@ -213,6 +254,7 @@ class CameraSource:
         self.last_observation: CameraObservation | None = None
         self.last_frame_jpeg: bytes | None = None
         self.observations: list[CameraObservation] = []
+        self._surprised: set[tuple[str, Surprise]] = set()
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         action = node.action
@@ -248,6 +290,12 @@ class CameraSource:
             return None
         reading = outcome_of(action, world, options)
         self._keep(node_id, action, world, reading.label, reading.reason, count, seconds)
+        if reading.surprise is not None and (node_id, reading.surprise) not in self._surprised:
+            # Said once per node: if the executor cannot follow it, the fallback answers
+            # instead of the camera repeating what was already refused.
+            self._surprised.add((node_id, reading.surprise))
+            self.last_frame_jpeg = jpeg(last)
+            return camera_surprise(reading, world, last, count, seconds, self.last_frame_jpeg)
         if reading.label is None:
             return None
         self.last_frame_jpeg = jpeg(last)

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Protocol
 
 from app.bench_world import place_parts
 from app.execution import ExecutionEvent
+from app.repair import REPAIR
 from perception.frames import Frame, Image
 from perception.layout import BenchLayout
 from planner.feasibility.scene import PartBox
@@ -318,6 +319,12 @@ class SimulatedHuman:
         """The robot's actions move parts; after a question or a request the human
         does what the plan now takes for granted (takes the part it agreed to
         attach, puts down what it was asked to)."""
+        if event.kind == REPAIR and event.plan is not None:
+            # The execution goes on with a new plan, whose node ids start afresh.
+            self.plan = event.plan
+            self.did.clear()
+            self._intended.clear()
+            return
         if event.action is None or event.kind == "sensing":
             return
         action = parse_action(event.action)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import collections
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
@@ -22,10 +23,10 @@ from perception.frames import Frame, VideoFileSource
 from perception.pipeline import BenchPerception
 from perception.sim import SimulatedCamera, write_video
 from planner.feasibility.scene import part_boxes
-from planner.plan import Plan
+from planner.plan import Plan, PlanNode
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
-from planner.vocabulary import SenseHumanHolding
+from planner.vocabulary import SenseHumanAttachingWhere, SenseHumanHolding
 from tests.plan_fixtures import SCENARIOS, default_plan
 
 SEEDS = range(20)
@@ -161,7 +162,9 @@ def test_a_recorded_video_gives_the_same_answers(
     assert [e.node for e in replay.events] == [e.node for e in live_events]
 
 
-def test_an_estimate_that_fits_no_option_has_no_answer(scenario: Scenario, plan: Plan) -> None:
+def test_an_estimate_that_fits_no_option_is_a_surprise_once(
+    scenario: Scenario, plan: Plan
+) -> None:
     layout = bench_layout(scenario)
     with SimulatedCamera(sim_scene(scenario), size=RENDER_SIZE) as camera:
         world = SimulatedWorld(part_boxes(scenario), layout, camera)
@@ -170,12 +173,19 @@ def test_an_estimate_that_fits_no_option_has_no_answer(scenario: Scenario, plan:
         node_id, node = next(
             (i, n) for i, n in plan.nodes.items() if isinstance(n.action, SenseHumanHolding)
         )
-        # The human holds leg2, but this node only offers "no".
-        assert source.choose(node_id, node, ["no"]) is None
+        # The human holds leg2, but this node only offers "no": no outcome fits, and
+        # what the camera saw is a surprise for the executor to plan from.
+        surprised = source.choose(node_id, node, ["no"])
+        assert surprised is not None and surprised.label == ""
+        assert surprised.surprise is not None and str(surprised.surprise) == "take leg2"
+        assert surprised.evidence is not None and surprised.evidence.jpeg
         obs = source.last_observation
         assert obs is not None and obs.label is None and obs.world is not None
         assert "leg2" in obs.reason
         assert outcome_of(node.action, obs.world, ["no", "yes"]).label == "yes"
+        # Asked again at the same node (the executor could not follow it): no answer,
+        # so the fallback decides instead of the camera repeating itself.
+        assert source.choose(node_id, node, ["no"]) is None
         # A node that is not sensing is left to the fallback, without reading frames.
         ask_id, ask = next((i, n) for i, n in plan.nodes.items() if n.kind == "communication")
         frames = len(source.observations)
@@ -217,3 +227,54 @@ def test_tandem_execute_with_the_simulated_camera(tmp_path: Path) -> None:
     done = tandem("execute", "default.toml", "--responses", "camera:webcam:63", env=env)
     assert done.returncode == 2
     assert done.stderr.strip().splitlines()[-1] == "--responses camera:webcam:63: no camera at 63"
+
+
+class PutsItDownInstead(SimulatedHuman):
+    """A simulated human who, at the first question of where they attached a part,
+    puts that part back on the bench instead: what no branch of the plan expects."""
+
+    surprised_at: str | None = None
+
+    def act(
+        self, node_id: str, node: PlanNode, options: Sequence[str], wanted: str | None = None
+    ) -> str | None:
+        if self.surprised_at is None and isinstance(node.action, SenseHumanAttachingWhere):
+            self.surprised_at = node_id
+            self.world.human_put_down(node.action.part)
+            return None
+        return super().act(node_id, node, options, wanted)
+
+
+def test_what_the_camera_sees_against_the_plan_is_repaired(
+    scenario: Scenario, plan: Plan, tmp_path: Path
+) -> None:
+    from app.repair import REPAIR, Repairer
+    from app.store import SessionStore
+
+    layout = bench_layout(scenario)
+    camera = StillSimulatedCamera(SimulatedCamera(sim_scene(scenario), size=RENDER_SIZE))
+    world = SimulatedWorld(part_boxes(scenario), layout, camera)
+    # Seed 2 says "no, yes, leg2" and reaches a question of where leg2 went (n68).
+    human = PutsItDownInstead(plan, world, seed=2)
+    source = CameraSource(camera, BenchPerception(camera.camera.intrinsics, layout), human)
+    with SessionStore(tmp_path) as store:
+        executor = Executor(
+            plan, FallbackSource(source, RandomSource(2)), [human.on_event],
+            repairing=Repairer(scenario, store.add_plan).repair,
+        )
+        try:
+            assert executor.run() == "goal"
+        finally:
+            camera.close()
+    assert human.surprised_at is not None, "the seed never reached an attaching question"
+    (repair,) = [e for e in executor.events if e.kind == REPAIR]
+    assert repair.node == human.surprised_at and repair.source == "camera"
+    assert repair.evidence is not None and repair.evidence.detail["surprise"].startswith("putdown")
+    assert repair.text is not None and "I see you put the leg2 down" in repair.text
+    asked = plan.nodes[repair.node].action
+    assert isinstance(asked, SenseHumanAttachingWhere)
+    # The new plan starts where the camera saw things: the part back on the bench.
+    assert repair.plan is not None and executor.plan is repair.plan
+    root = set(repair.plan.nodes[repair.plan.root].state)
+    assert f"humanHoldingPart({asked.part})" not in root and "humanFree" in root
+    assert not any(f.startswith(f"attached({asked.part},") for f in root)
