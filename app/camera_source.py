@@ -153,6 +153,22 @@ def placements(world: WorldEstimate) -> dict[str, str]:
     return {pid: where_words(p.placement) for pid, p in world.parts.items()}
 
 
+def _seen(
+    decided: tuple[str, str], reading: Reading, world: WorldEstimate, frame: Frame,
+    frames: int, seconds: float,
+) -> dict[str, Any]:
+    """The evidence of a camera reading; `decided` is what it said ("label" or "surprise")."""
+    return {
+        decided[0]: decided[1],
+        "confidence": round(reading.confidence, 3),
+        "reason": reading.reason,
+        "frames": frames,
+        "frame_index": frame.index,
+        "seconds": round(seconds, 3),
+        "placements": placements(world),
+    }
+
+
 def camera_outcome(
     action: Action | None, reading: Reading, world: WorldEstimate, frame: Frame,
     frames: int, seconds: float, truth: str | None, picture: bytes,
@@ -160,17 +176,8 @@ def camera_outcome(
     """A camera answer with its evidence: the reading, the deciding frame, and (with a
     simulated human) what the human really did, so agreement is counted from the store."""
     assert reading.label is not None
-    detail: dict[str, Any] = {
-        "camera": {
-            "label": reading.label,
-            "confidence": round(reading.confidence, 3),
-            "reason": reading.reason,
-            "frames": frames,
-            "frame_index": frame.index,
-            "seconds": round(seconds, 3),
-            "placements": placements(world),
-        }
-    }
+    seen = _seen(("label", reading.label), reading, world, frame, frames, seconds)
+    detail: dict[str, Any] = {"camera": seen}
     if truth is not None:
         detail["truth"] = truth
     return Outcome(
@@ -186,20 +193,10 @@ def camera_surprise(
 ) -> Outcome:
     """What the camera saw that fits no outcome: the executor plans again from it."""
     assert reading.surprise is not None
-    detail: dict[str, Any] = {
-        "camera": {
-            "surprise": str(reading.surprise),
-            "confidence": round(reading.confidence, 3),
-            "reason": reading.reason,
-            "frames": frames,
-            "frame_index": frame.index,
-            "seconds": round(seconds, 3),
-            "placements": placements(world),
-        }
-    }
+    seen = _seen(("surprise", str(reading.surprise)), reading, world, frame, frames, seconds)
     return Outcome(
         "", "camera", round(reading.confidence, 3), f"camera: {reading.reason}",
-        Evidence(detail, picture), surprise=reading.surprise,
+        Evidence({"camera": seen}, picture), surprise=reading.surprise,
     )
 
 
