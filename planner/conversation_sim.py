@@ -31,7 +31,7 @@ def due(dom: Domain, s: State, action: str | None, *, first: bool) -> list[str]:
     if f.verbosity not in ("normal", "chatty"):
         return []
     out: list[tuple[int, str]] = []
-    if first:
+    if first and not f.resumed:
         out.append((0, "greet"))
     if action is None:
         out.append((4, "farewell"))

@@ -15,6 +15,7 @@ _FACT_ARITY: dict[str, int] = {
     "part": 1, "movable": 1, "class": 2, "attachable": 2, "connection": 2,
     "dangerous": 1, "region": 1, "humanReach": 1, "loc": 2, "manipulator": 1,
     "reachable": 2, "goal": 2, "safety": 1, "verbosity": 1, "initiative": 1,
+    "resumed": 0,
 }  # fmt: skip
 
 
@@ -37,6 +38,7 @@ class Facts:
     safety: str = "normal"
     verbosity: str = "normal"
     initiative: int = DEFAULT_INITIATIVE  # how often the human may pick a part up unasked
+    resumed: bool = False  # planned from a later state (a repair): no greeting again
 
 
 def parse_facts(items: object) -> tuple[Facts, list[str]]:
@@ -97,6 +99,8 @@ def _add_fact(f: Facts, name: str, a: tuple[str, ...]) -> str | None:
         f.safety = a[0]
     elif name == "verbosity":
         f.verbosity = a[0]
+    elif name == "resumed":
+        f.resumed = True
     elif name == "initiative":
         if not re.fullmatch(r"[0-9]+", a[0]):
             return "the budget must be a non-negative integer"

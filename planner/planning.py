@@ -133,6 +133,8 @@ def _plan(
     # A cause found before the search is an answer in microseconds, not minutes.
     diagnosis.check(scenario, reachable)
     facts = scenario.facts(reachable)
+    if start is not None:
+        facts = [*facts, "resumed"]  # conversation.lp: the robot has greeted already
     problem = Problem(
         facts=tuple(f for f in facts if not f.startswith("reachable(")),
         reachable=reachable,

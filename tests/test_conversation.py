@@ -140,3 +140,31 @@ def test_the_paper_columns_count_the_task_alone() -> None:
     node["action"] = "warnWorking(shared)"
     problems = [v.message for v in audit(wrong)]
     assert any("said [warnWorking(shared)], due [greet]" in p for p in problems), problems
+
+
+def test_a_plan_from_a_later_state_does_not_greet_again() -> None:
+    # A repair plans from where the execution stood: the robot greeted already.
+    resumed = plan_scenario(
+        scenario(), workers=1, start=frozenset({"attached(leg1,top,c1)", "humanFree"})
+    ).plan
+    assert "resumed" in resumed.facts
+    assert talk(resumed, "farewell") and not talk(resumed, "greet")
+    assert audit(resumed.to_json()) == []
+    # The audit holds it to that: a greeting put back at its root is talk too many.
+    first = planned()
+    (greeting, _), = talk(first, "greet")
+    again = resumed.model_copy(
+        update={
+            "root": "hello",
+            "nodes": {
+                **resumed.nodes,
+                "hello": greeting.model_copy(
+                    update={"children": [Child(outcome=None, node=resumed.root)]}
+                ),
+            },
+        }
+    )
+    again.stats = {**resumed.statistics, **tree_stats(again)}
+    # (The greeting copied from the first plan also carries that plan's start state.)
+    problems = [v.message for v in audit(again.to_json())]
+    assert any(m.endswith("said [greet], due []") for m in problems), problems
