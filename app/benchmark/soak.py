@@ -11,6 +11,7 @@ and the time from a click on an answer until the page has dropped its buttons.
 from __future__ import annotations
 
 import argparse
+import bisect
 import os
 import re
 import shutil
@@ -87,18 +88,17 @@ def yield_to_server(server_pid: int) -> None:
 
 
 def server_latencies(clicks: Sequence[float], answered: Sequence[float]) -> list[float]:
-    """For each click (wall clock), the time until the server stored the next answer
-    that came from a click: the server's part of an answer, without the page's."""
+    """For each answer the server stored from a click (wall clock), the time since the
+    last click before it: the server's part of an answer, without the page's. A click
+    that answered nothing (the question had gone) is not counted."""
+    ordered = sorted(clicks)
     out: list[float] = []
-    later = iter(answered)
-    t = next(later, None)
-    for click in sorted(clicks):
-        while t is not None and t < click:
-            t = next(later, None)
-        if t is None:
-            break
-        out.append(t - click)
-        t = next(later, None)
+    used: set[int] = set()
+    for t in sorted(answered):
+        i = bisect.bisect_right(ordered, t) - 1
+        if i >= 0 and i not in used:
+            used.add(i)
+            out.append(t - ordered[i])
     return out
 
 
