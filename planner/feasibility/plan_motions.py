@@ -2,30 +2,36 @@
 
 Where an arm stands follows from the state: a free arm is at home; an arm holding
 a loose part is at that part's grasp; an arm holding a part it has attached is at
-the assembly's work point (the root's connection point nearest to it), or still
-at its grasp if the other arm brought the assembly to it. So
+the site of the slot that part went to (scene.py: slots follow the assembly), or
+still at its grasp if it cannot reach that site (the other arm holds the assembly
+and brought it over). So
 
 - `hold(M,P)`: home to the grasp of P;
-- `attach(M,Q,C)`: the grasp of the held part to the work point of Q's assembly;
+- `attach(M,Q,C)`: the grasp of the held part to the site of Q's point C;
 - `unhold(M)`: from there back home.
+
+`motion_of` answers for one action in one state: the executor asks it again when
+the human used another slot than the branch names (the real state differs).
 """
 
 from __future__ import annotations
 
 from planner.feasibility.arms import joint_names
-from planner.feasibility.checks import BenchChecks
+from planner.feasibility.checks import BenchChecks, Place
+from planner.feasibility.scene import site_of
 from planner.plan import Motion, Plan
 from planner.vocabulary import Action, Attach, Hands, Hold, Unhold
 
 DECIMALS = 4  # 0.1 mrad: far below what the arm can resolve; keeps plan files small
 
+Endpoints = tuple[str, Place | None, Place | None]  # arm, from, to (None: home)
 
 
 def add_motions(plan: Plan, checks: BenchChecks) -> int:
     """Adds its `motion` to every actuation node of `plan`; returns how many distinct
     motions the plan uses."""
     nodes = [
-        (node, _endpoints(node.action, node.state, checks))
+        (node, endpoints(node.action, node.state, checks))
         for node in plan.nodes.values()
         if node.kind == "actuation" and node.action is not None
     ]
@@ -33,38 +39,54 @@ def add_motions(plan: Plan, checks: BenchChecks) -> int:
     checks.prefetch_moves(
         (arm, start, goal) for _, (arm, start, goal) in nodes if start is not None and goal
     )
-    seen: dict[tuple[str, str | None, str | None], list[list[float]]] = {}
-    for node, (arm, start, goal) in nodes:
-        if (arm, start, goal) not in seen:
-            path = checks.move(arm, start, goal)
-            seen[(arm, start, goal)] = [[round(v, DECIMALS) for v in q] for q in path]
-        node.motion = Motion(arm=arm, joints=joint_names(arm), path=seen[(arm, start, goal)])
+    seen: dict[Endpoints, Motion] = {}
+    for node, ends in nodes:
+        if ends not in seen:
+            seen[ends] = _motion(ends, checks)
+        node.motion = seen[ends].model_copy(deep=True)
     return len(seen)
 
 
-def _endpoints(
-    action: Action, state: list[str], checks: BenchChecks
-) -> tuple[str, str | None, str | None]:
-    """(arm, where it starts, where it ends) as part ids whose work point it is at."""
+def motion_of(action: Action, state: list[str], checks: BenchChecks) -> Motion:
+    """The motion of actuation `action` in `state` (cached by `checks`)."""
+    return _motion(endpoints(action, state, checks), checks)
+
+
+def _motion(ends: Endpoints, checks: BenchChecks) -> Motion:
+    arm, start, goal = ends
+    path = [[round(v, DECIMALS) for v in q] for q in checks.move(arm, start, goal)]
+    return Motion(arm=arm, joints=joint_names(arm), path=path)
+
+
+def endpoints(action: Action, state: list[str], checks: BenchChecks) -> Endpoints:
+    """(arm, where it starts, where it ends) of actuation `action` in `state`."""
     hands = Hands.of(state)
 
-    def root(part: str) -> str:
-        while part in hands.attached:
-            part = hands.attached[part][0]
-        return part
-
-    def work_point(arm: str, held: str, onto: str) -> str:
-        # At the assembly if the arm reaches it; else the other arm brings it over.
-        r = root(onto)
-        return r if checks.reach(arm, r).reachable else held
+    def at_slot(arm: str, held: str, onto: str, point: str) -> Place:
+        site = site_of(hands.attached, onto, point)
+        return site if checks.reach_site(arm, site).reachable else held
 
     match action:
         case Hold(arm, part):
             return arm, None, part
-        case Attach(arm, onto, _):
+        case Attach(arm, onto, point):
             held = hands.holding[arm]
-            return arm, held, work_point(arm, held, onto)
+            return arm, held, at_slot(arm, held, onto, point)
         case Unhold(arm):
             held = hands.holding[arm]
-            return arm, work_point(arm, held, held), None
+            if held in hands.attached:
+                onto, point = hands.attached[held]
+                return arm, at_slot(arm, held, onto, point), None
+            return arm, held, None
     raise ValueError(f"no motion for actuation {action}")
+
+
+def retarget(
+    action: Action, state: list[str], real: Action, real_state: list[str], checks: BenchChecks
+) -> Motion | None:
+    """The motion of `real` in `real_state` (the world, where the branch's `action` in
+    `state` names other slots), or None when the branch's motion goes there already."""
+    ends = endpoints(real, real_state, checks)
+    if ends == endpoints(action, state, checks):
+        return None
+    return _motion(ends, checks)
