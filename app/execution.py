@@ -11,6 +11,12 @@ question is asked): it speaks the sentence and returns what to keep of that
 (the text, the engine), which the event carries as evidence. It runs
 synchronously (`run()`) or in its own thread (`start()`), and can be paused,
 single-stepped, resumed and aborted from any thread.
+
+Slots follow the world (app.slot_map): when the human attaches at another free
+slot than the branch names (an outcome with a `slot`), the executor keeps to the
+branch, remembers the real slot, and hands every later robot motion whose target
+moved to `retarget` (the motion planner), so the event carries the motion the
+robot really makes; its evidence keeps that motion for the session.
 """
 
 from __future__ import annotations
@@ -23,8 +29,10 @@ from typing import Literal
 
 from app.outcomes import Evidence, Outcome, OutcomeError, OutcomeSource, describe
 from app.repair import REPAIR, Repair, RepairFailed
+from app.slot_map import SlotError, SlotMap
 from app.surprises import Surprise, SurpriseError
 from planner.plan import Motion, Plan, PlanNode
+from planner.vocabulary import Action, SenseHumanAttachingWhere
 
 Result = Literal["goal", "aborted", "interrupted", "dead-end"]
 RESULTS: tuple[Result, ...] = ("goal", "aborted", "interrupted", "dead-end")
@@ -64,6 +72,9 @@ Listener = Callable[[ExecutionEvent], None]
 Repairing = Callable[[PlanNode, Surprise], tuple[Repair, str]]
 # Speaks a communication node's sentence; what it returns is kept with the event.
 Narrator = Callable[[str, PlanNode], Evidence | None]
+# The motion of the real action in the real state, given the branch's action and
+# state first; None when the branch's stored motion goes there already.
+Retarget = Callable[[Action, list[str], Action, list[str]], Motion | None]
 
 
 def merged(first: Evidence | None, second: Evidence | None) -> Evidence | None:
@@ -94,8 +105,11 @@ class Executor:
         max_steps: int = 10_000,
         narrator: Narrator | None = None,
         repairing: Repairing | None = None,
+        retarget: Retarget | None = None,
     ) -> None:
         self.plan = plan
+        self.retarget = retarget
+        self.slots = SlotMap(plan.facts)
         self.narrator = narrator
         self.repairing = repairing
         self.nodes = plan.nodes
@@ -228,7 +242,10 @@ class Executor:
                 spoken = self.narrator(node_id, node)
             if not options:
                 text = node.say if node.kind == "communication" else None
-                self._emit(node_id, node, text=text, motion=node.motion, evidence=spoken)
+                motion, moved = self._motion(node)
+                self._emit(
+                    node_id, node, text=text, motion=motion, evidence=merged(spoken, moved)
+                )
                 next_id = children[0].node
             else:
                 try:
@@ -240,6 +257,7 @@ class Executor:
                     if repaired is not None:
                         node_id = repaired
                     continue  # on the new plan's root, or the same node asked again
+                slot = self._follow_slot(node_id, node, outcome)
                 text = node.say if node.kind == "communication" else outcome.text
                 self._emit(
                     node_id,
@@ -248,7 +266,7 @@ class Executor:
                     source=outcome.source,
                     confidence=outcome.confidence,
                     text=text or describe(node.action, outcome.label),
-                    evidence=merged(spoken, outcome.evidence),
+                    evidence=merged(merged(spoken, outcome.evidence), slot),
                 )
                 next_id = next(c.node for c in children if c.outcome == outcome.label)
             try:
@@ -303,6 +321,37 @@ class Executor:
                 )
             return outcome
 
+    def _follow_slot(self, node_id: str, node: PlanNode, outcome: Outcome) -> Evidence | None:
+        """Maps the branch's slot onto the one the human used, if they differ."""
+        if outcome.slot is None or outcome.slot == outcome.label:
+            return None
+        action = node.action
+        if not isinstance(action, SenseHumanAttachingWhere):
+            raise OutcomeError(f"{node.action} at {node_id} has no slot to observe")
+        try:
+            self.slots.follow(action.onto, outcome.label, outcome.slot, node.state)
+        except SlotError as err:
+            raise OutcomeError(f"{node.action} at {node_id}: {err}") from None
+        slot = {"onto": action.onto, "branch": outcome.label, "real": outcome.slot}
+        return Evidence({"slot": slot, "slots": self.slots.to_json()})
+
+    def _motion(self, node: PlanNode) -> tuple[Motion | None, Evidence | None]:
+        """The node's motion where the world's slots are the branch's; else, re-targeted
+        to the real slots, with evidence saying so and keeping the new motion."""
+        if node.motion is None or node.action is None or self.slots.identity:
+            return node.motion, None
+        real = self.slots.action(node.action)
+        state = self.slots.state(node.state)
+        if real == node.action and sorted(state) == sorted(node.state):
+            return node.motion, None
+        detail: dict[str, object] = {"slots": self.slots.to_json(), "real_action": str(real)}
+        if self.retarget is None:
+            return node.motion, Evidence({**detail, "retargeted": "no motion planner"})
+        motion = self.retarget(node.action, node.state, real, state)
+        if motion is None:
+            return node.motion, None
+        return motion, Evidence({**detail, "retargeted": motion.model_dump()})
+
     def _repair(self, node_id: str, node: PlanNode, outcome: Outcome) -> str | None:
         """Plans again from what was observed and switches to that plan; its root, or
         None (no repair possible: the node is asked again)."""
@@ -311,7 +360,9 @@ class Executor:
         try:
             if self.repairing is None:
                 raise RepairFailed("this execution cannot plan again")
-            repair, digest = self.repairing(node, surprise)
+            # From the world's state: the branch's slots renamed to the real ones.
+            seen = node.model_copy(update={"state": self.slots.state(node.state)})
+            repair, digest = self.repairing(seen, surprise)
         except (RepairFailed, SurpriseError) as err:
             self._emit(node_id, node, source=outcome.source, text=f"surprise ignored: {err}")
             return None
@@ -332,6 +383,7 @@ class Executor:
             listener(event)
         self.plan = repair.plan
         self.nodes = repair.plan.nodes
+        self.slots = SlotMap(repair.plan.facts)  # the new plan starts from the real slots
         return repair.plan.root
 
     def _emit_stop(self, node_id: str, reason: str) -> None:

@@ -55,6 +55,9 @@ class Outcome:
     text: str = ""
     evidence: Evidence | None = None
     surprise: Surprise | None = None  # what happened fits no outcome: plan again
+    # sense(humanAttachingWhere): the free slot the human really used, when it is
+    # another than the branch `label` names (the executor maps one onto the other)
+    slot: str | None = None
 
 
 class OutcomeSource(Protocol):
@@ -141,7 +144,9 @@ class ScriptedSource:
     """Outcome labels read from a text file, one a line, `#` starting a comment.
 
     A line `!attach leg2 top c2` is a surprise (app.surprises): what the human
-    did instead of any outcome, which makes the executor repair the plan.
+    did instead of any outcome, which makes the executor repair the plan. At a
+    `sense(humanAttachingWhere(P,Q))` node a connection point of Q that is not the
+    branch's names the free slot the human really used (the executor follows it).
     Each nondeterministic node takes the next line. When the lines run out
     the source has no answer (None); a label that is not an outcome of the
     node raises `ScriptError` naming the file and the line.
@@ -188,6 +193,11 @@ class ScriptedSource:
         if line.label.startswith("!"):
             surprise = parse_surprise(line.label[1:])
             return Outcome("", self.name, 1.0, str(surprise), surprise=surprise)
+        if line.label not in options and isinstance(node.action, SenseHumanAttachingWhere):
+            # Another slot than the branch names: the executor checks that it is free.
+            return Outcome(
+                options[0], self.name, 1.0, describe(node.action, line.label), slot=line.label
+            )
         if line.label not in options:
             raise ScriptError(
                 f"{self.path}:{line.number}: '{line.label}' is not an outcome of "
