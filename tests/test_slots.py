@@ -1,0 +1,213 @@
+"""Slots that match the world: the human attaches at another free slot than the branch
+names, execution follows it, and the robot's later motions go there (real pybullet/OMPL)."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+from collections import deque
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from app.execution import ExecutionEvent, Executor
+from app.outcomes import ExpectedSource, FallbackSource, ScriptedSource
+from app.slot_map import SlotError, SlotMap, connection_points
+from planner.feasibility.cache import CheckCache
+from planner.feasibility.checks import BenchChecks
+from planner.feasibility.plan_motions import retarget
+from planner.feasibility.reach import POS_TOL, World
+from planner.feasibility.scene import Site, site_of
+from planner.plan import Motion, Plan
+from planner.scenario import load_scenario
+from planner.scenario_model import Scenario
+from planner.vocabulary import Action, Attach, Hands, SenseHumanAttachingWhere
+from tests.plan_fixtures import SCENARIOS, plan_of, tandem
+
+# Three slots on the top: when the human attaches the first of their legs, two are free.
+SCENARIO = SCENARIOS / "paper" / "paper-02.toml"
+# Two slots, and every motion of its plan at the slot its state names.
+SMALL = SCENARIOS / "paper" / "paper-01.toml"
+
+
+@pytest.fixture(scope="module")
+def scenario() -> Scenario:
+    return load_scenario(SCENARIO)
+
+
+@pytest.fixture(scope="module")
+def plan() -> Plan:
+    return plan_of(SCENARIO)
+
+
+def _free_points(plan: Plan, state: list[str], onto: str) -> list[str]:
+    taken = {point for o, point in Hands.of(state).attached.values() if o == onto}
+    return [c for c in connection_points(plan.facts)[onto] if c not in taken]
+
+
+def _script_to_choice(plan: Plan) -> tuple[list[str], str, str, str]:
+    """The outcome labels from the root to the first humanAttachingWhere with two free
+    slots (breadth first), then that node's id, its branch slot and another free one."""
+    queue = deque([(plan.root, list[str]())])
+    seen = {plan.root}
+    while queue:
+        node_id, labels = queue.popleft()
+        node = plan.nodes[node_id]
+        action = node.action
+        if isinstance(action, SenseHumanAttachingWhere):
+            free = _free_points(plan, node.state, action.onto)
+            if len(free) >= 2:
+                branch = node.outcomes[0]
+                other = next(c for c in free if c != branch)
+                return labels, node_id, branch, other
+        for child in node.children:
+            if child.node not in seen:
+                seen.add(child.node)
+                more = [child.outcome] if child.outcome is not None else []
+                queue.append((child.node, labels + more))
+    raise AssertionError("no humanAttachingWhere with two free slots in this plan")
+
+
+def _run(plan: Plan, script: Path, checks: BenchChecks) -> tuple[str, list[ExecutionEvent]]:
+    def motion(a: Action, s: list[str], real: Action, rs: list[str]) -> Motion | None:
+        return retarget(a, s, real, rs, checks)
+
+    source = FallbackSource(ScriptedSource(script), ExpectedSource())
+    executor = Executor(plan, source, retarget=motion)
+    return executor.run(), executor.events
+
+
+def test_the_next_robot_motion_at_a_leg_the_human_put_elsewhere_ends_at_its_real_slot(
+    plan: Plan, scenario: Scenario, tmp_path: Path
+) -> None:
+    labels, where_id, branch, real = _script_to_choice(plan)
+    where = plan.nodes[where_id].action
+    assert isinstance(where, SenseHumanAttachingWhere)
+    leg, onto = where.part, where.onto
+    script = tmp_path / "responses.txt"
+    script.write_text("\n".join([*labels, real, ""]))
+    with CheckCache() as cache, BenchChecks(scenario, cache=cache) as checks:
+        result, events = _run(plan, script, checks)
+    assert result == "goal"
+    at = next(i for i, e in enumerate(events) if e.node == where_id)
+    assert events[at].outcome == branch  # the branch is followed...
+    assert events[at].evidence is not None
+    assert events[at].evidence.detail["slot"] == {"onto": onto, "branch": branch, "real": real}
+    # ...and the next robot motion working at that leg (a foot onto it) goes to its real slot.
+    onto_leg = next(
+        e for e in events[at:] if e.action is not None and e.action.startswith("attach(")
+        and e.action.split(",")[1] == leg
+    )  # fmt: skip
+    assert onto_leg.motion is not None and onto_leg.evidence is not None
+    assert onto_leg.evidence.detail["retargeted"] == onto_leg.motion.model_dump()
+    stored = plan.nodes[onto_leg.node].motion
+    assert stored is not None and stored.path != onto_leg.motion.path
+    with World(scenario) as world:
+        end = world.endpoint(onto_leg.motion.arm, onto_leg.motion.path[-1])
+        assert math.dist(end, world.site_target(Site(onto, real))) <= POS_TOL
+        # The branch's slot is elsewhere: the stored motion went there, this one does not.
+        assert math.dist(end, world.site_target(Site(onto, branch))) > 5 * POS_TOL
+        stored_end = world.endpoint(stored.arm, stored.path[-1])
+        assert math.dist(stored_end, world.site_target(Site(onto, branch))) <= POS_TOL
+        # Every later re-targeted motion ends (attach) or starts (unhold) at a real slot
+        # of that part's assembly.
+        retargeted = [e for e in events[at:] if e.evidence and "retargeted" in e.evidence.detail]
+        assert len(retargeted) >= 2
+        sites = [world.site_target(Site(onto, c)) for c in connection_points(plan.facts)[onto]]
+        for e in retargeted:
+            assert e.motion is not None and e.action is not None
+            q = e.motion.path[-1] if e.action.startswith("attach(") else e.motion.path[0]
+            assert min(math.dist(world.endpoint(e.motion.arm, q), xyz) for xyz in sites) <= POS_TOL
+
+
+def test_the_slot_map_stays_one_to_one_and_refuses_taken_or_unknown_slots() -> None:
+    facts = [f"connection(top,c{i})" for i in (1, 2, 3)] + ["connection(leg1,foot)"]
+    slots = SlotMap(facts)
+    state = ["attached(leg1,top,c1)"]
+    slots.follow("top", "c2", "c3", state)  # the branch says c2, the human used c3
+    assert slots.to_json() == {"top": {"c2": "c3", "c3": "c2"}}
+    assert slots.state(["attached(leg2,top,c2)", *state]) == [
+        "attached(leg2,top,c3)",
+        "attached(leg1,top,c1)",
+    ]
+    assert slots.action(Attach("left", "top", "c3")) == Attach("left", "top", "c2")
+    with pytest.raises(SlotError, match="taken"):
+        slots.follow("top", "c3", "c1", state)
+    with pytest.raises(SlotError, match="no connection point c9"):
+        slots.follow("top", "c3", "c9", state)
+    # Back where the branch says: the map is the identity again.
+    slots.follow("top", "c2", "c2", state)
+    assert slots.identity
+
+
+def test_site_of_follows_the_attachment_chain() -> None:
+    attached = {"leg1": ("top", "c2"), "foot1": ("leg1", "foot")}
+    assert site_of(attached, "leg1", "foot") == Site("top", "c2")
+    assert site_of(attached, "foot1", "x") == Site("top", "c2")
+    assert site_of(attached, "leg2", "foot") == Site("leg2", "foot")
+
+
+def test_tandem_execute_follows_a_scripted_slot_to_the_goal(plan: Plan, tmp_path: Path) -> None:
+    labels, where_id, branch, real = _script_to_choice(plan)
+    script = tmp_path / "responses.txt"
+    script.write_text("\n".join([*labels, f"{real}  # the human uses another free slot", ""]))
+    data = tmp_path / "data"
+    done = tandem(
+        "execute", str(SCENARIO), "--responses", f"scripted:{script}", "--data-dir", str(data)
+    )
+    assert done.returncode == 0, done.stderr
+    assert ": goal after" in done.stdout
+    assert f"-> {branch} (scripted)" in done.stderr
+    assert f"at {real}" in done.stderr  # the event says where the human really attached
+    from app.store import SessionStore
+
+    with SessionStore(data) as store:
+        session = store.list_sessions()[0]
+        events = store.events(session.id)
+    details = [e.evidence.detail for e in events if e.evidence is not None]
+    assert any(d.get("slot", {}).get("real") == real for d in details)
+    assert any(isinstance(d.get("retargeted"), dict) for d in details)
+
+
+def _wrong_slot() -> tuple[dict[str, Any], dict[str, Any], str, str]:
+    """paper-01's plan, and a copy whose robot attach onto the top at c1 has a real
+    path to c2 instead; the node and the arm."""
+    doc = plan_of(SMALL).to_json()
+    node_id, node = next(
+        (i, n) for i, n in doc["nodes"].items() if str(n["action"]).endswith(",top,c1)")
+    )
+    arm = node["motion"]["arm"]
+    held = Hands.of(node["state"]).holding[arm]
+    with CheckCache() as cache, BenchChecks(load_scenario(SMALL), cache=cache) as checks:
+        path = checks.move(arm, held, Site("top", "c2"))
+    broken = copy.deepcopy(doc)
+    broken["nodes"][node_id]["motion"]["path"] = path
+    return doc, broken, node_id, arm
+
+
+def test_audit_flags_a_motion_to_the_wrong_slot() -> None:
+    from planner.audit_slots import slot_problems
+
+    doc, broken, node_id, arm = _wrong_slot()
+    scenario = load_scenario(SMALL)
+    assert slot_problems(doc, scenario) == []
+    problems = slot_problems(broken, scenario)
+    assert [n for n, _ in problems] == [node_id]
+    assert f"{arm} motion ends" in problems[0][1]
+    assert "from the site of top's c1 (top@c1)" in problems[0][1]
+
+
+def test_tandem_check_with_the_scenario_checks_motion_targets(tmp_path: Path) -> None:
+    doc, broken, node_id, _ = _wrong_slot()
+    good, bad = tmp_path / "plan.json", tmp_path / "bad.json"
+    good.write_text(json.dumps(doc))
+    bad.write_text(json.dumps(broken))
+    ok = tandem("check", str(good), "--scenario", str(SMALL))
+    assert ok.returncode == 0 and "plan OK" in ok.stdout, ok.stdout + ok.stderr
+    flagged = tandem("check", str(bad), "--scenario", str(SMALL))
+    assert flagged.returncode == 1
+    assert f"{node_id}" in flagged.stdout and "from the site of top's c1" in flagged.stdout
+    other = tandem("check", str(good), "--scenario", str(SCENARIO))
+    assert other.returncode != 0 and "not the scenario of this plan" in other.stderr
