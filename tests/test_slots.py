@@ -93,8 +93,9 @@ def test_the_next_robot_motion_at_a_leg_the_human_put_elsewhere_ends_at_its_real
     assert result == "goal"
     at = next(i for i, e in enumerate(events) if e.node == where_id)
     assert events[at].outcome == branch  # the branch is followed...
-    assert events[at].evidence is not None
-    assert events[at].evidence.detail["slot"] == {"onto": onto, "branch": branch, "real": real}
+    seen = events[at].evidence
+    assert seen is not None
+    assert seen.detail["slot"] == {"onto": onto, "branch": branch, "real": real}
     # ...and the next robot motion working at that leg (a foot onto it) goes to its real slot.
     onto_leg = next(
         e for e in events[at:] if e.action is not None and e.action.startswith("attach(")
