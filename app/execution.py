@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -323,17 +323,34 @@ class Executor:
 
     def _follow_slot(self, node_id: str, node: PlanNode, outcome: Outcome) -> Evidence | None:
         """Maps the branch's slot onto the one the human used, if they differ."""
-        if outcome.slot is None or outcome.slot == outcome.label:
+        if outcome.slot is None:
             return None
         action = node.action
         if not isinstance(action, SenseHumanAttachingWhere):
             raise OutcomeError(f"{node.action} at {node_id} has no slot to observe")
+        if outcome.slot == self.slots.real(action.onto, outcome.label):
+            return None  # where the branch's slot is in the world already
         try:
             self.slots.follow(action.onto, outcome.label, outcome.slot, node.state)
         except SlotError as err:
             raise OutcomeError(f"{node.action} at {node_id}: {err}") from None
         slot = {"onto": action.onto, "branch": outcome.label, "real": outcome.slot}
         return Evidence({"slot": slot, "slots": self.slots.to_json()})
+
+    def slot_choices(self, node: PlanNode) -> list[str]:
+        """Where the human can attach at a humanAttachingWhere node: the real free points."""
+        action = node.action
+        if not isinstance(action, SenseHumanAttachingWhere):
+            return []
+        return self.slots.free(action.onto, node.state)
+
+    def slot_label(self, node: PlanNode, options: Sequence[str], real: str) -> str:
+        """The outcome label for attaching at real point `real` (then followed there):
+        the branch's name of that point if the node has it, else its first outcome."""
+        action = node.action
+        assert isinstance(action, SenseHumanAttachingWhere)
+        branch = self.slots.branch(action.onto, real)
+        return branch if branch in options else options[0]
 
     def _motion(self, node: PlanNode) -> tuple[Motion | None, Evidence | None]:
         """The node's motion where the world's slots are the branch's; else, re-targeted

@@ -225,8 +225,19 @@ class Offer:
     words: tuple[str, ...]
 
 
+class SlotChoices(Protocol):
+    """Where the human may attach at a humanAttachingWhere node (the executor knows)."""
+
+    def slot_choices(self, node: Node) -> list[str]: ...
+
+    def slot_label(self, node: Node, options: Sequence[str], real: str) -> str: ...
+
+
 class ClickSource:
     """Outcomes clicked in the dashboard.
+
+    With `slots` (the executor), a humanAttachingWhere node offers every free slot of
+    the world, not only the branch's: a click on another one is followed there.
 
     `choose` (the executor's thread) offers the node's options and waits up to
     `timeout` seconds for `click(label)` from another thread. `on_offer(offer)`
@@ -245,6 +256,7 @@ class ClickSource:
     ) -> None:
         self.timeout = timeout
         self.on_offer = on_offer
+        self.slots: SlotChoices | None = None
         self._cond = threading.Condition()
         self._offer: Offer | None = None
         self._clicked: str | None = None
@@ -302,7 +314,9 @@ class ClickSource:
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         action = node.action
-        self.offer(node_id, options, action)
+        slots = self.slots if isinstance(action, SenseHumanAttachingWhere) else None
+        choices = slots.slot_choices(node) if slots is not None else []
+        self.offer(node_id, choices or options, action)
         with self._cond:
             self._cond.wait_for(
                 lambda: self._clicked is not None or self._interrupted, self.timeout
@@ -316,6 +330,10 @@ class ClickSource:
             self._clicked = None
         if self.on_offer is not None:
             self.on_offer(None)
+        if slots is not None and choices:
+            # A slot of the world was clicked: the branch it falls in, followed there.
+            branch = slots.slot_label(node, options, label)
+            return Outcome(branch, self.name, 1.0, describe(action, label), slot=label)
         return Outcome(label, self.name, 1.0, describe(action, label))
 
 

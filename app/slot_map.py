@@ -65,12 +65,7 @@ class SlotMap:
         points = self.points.get(onto, [])
         if real not in points:
             raise SlotError(f"{onto} has no connection point {real} (it has {', '.join(points)})")
-        taken = {
-            f.slot
-            for f in map(parse_fluent, self.state(state))
-            if isinstance(f, Attached) and f.onto == onto
-        }
-        if real in taken:
+        if real not in self.free(onto, state):
             raise SlotError(f"{onto}'s {real} is taken already")
         mapping = {p: self.real(onto, p) for p in points}
         before = mapping[branch]
@@ -81,6 +76,19 @@ class SlotMap:
             self._real[onto] = changed
         else:
             self._real.pop(onto, None)
+
+    def branch(self, part: str, real: str) -> str:
+        """The branch's name of `part`'s real point `real`."""
+        return next((b for b, r in self._real.get(part, {}).items() if r == real), real)
+
+    def free(self, onto: str, state: Iterable[str]) -> list[str]:
+        """`onto`'s points free in the world, where the branch is in `state`."""
+        taken = {
+            f.slot
+            for f in map(parse_fluent, self.state(state))
+            if isinstance(f, Attached) and f.onto == onto
+        }
+        return [p for p in self.points.get(onto, []) if p not in taken]
 
     def to_json(self) -> dict[str, dict[str, str]]:
         return {part: dict(sorted(m.items())) for part, m in sorted(self._real.items())}

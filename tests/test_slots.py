@@ -13,7 +13,14 @@ from typing import Any
 import pytest
 
 from app.execution import ExecutionEvent, Executor
-from app.outcomes import ExpectedSource, FallbackSource, ScriptedSource
+from app.outcomes import (
+    ClickSource,
+    ExpectedSource,
+    FallbackSource,
+    Offer,
+    ScriptedSource,
+    describe,
+)
 from app.slot_map import SlotError, SlotMap, connection_points
 from planner.feasibility.cache import CheckCache
 from planner.feasibility.checks import BenchChecks
@@ -212,3 +219,35 @@ def test_tandem_check_with_the_scenario_checks_motion_targets(tmp_path: Path) ->
     assert f"{node_id}" in flagged.stdout and "from the site of top's c1" in flagged.stdout
     other = tandem("check", str(good), "--scenario", str(SCENARIO))
     assert other.returncode != 0 and "not the scenario of this plan" in other.stderr
+
+
+def test_clicks_offer_every_free_slot_and_a_click_elsewhere_is_followed(
+    plan: Plan, scenario: Scenario
+) -> None:
+    labels, where_id, branch, real = _script_to_choice(plan)
+    answers = iter([*labels, real])
+    offered: dict[str, tuple[str, ...]] = {}
+    clicks = ClickSource(timeout=5.0)
+
+    def answer(offer: Offer | None) -> None:
+        if offer is not None:
+            offered[offer.node_id] = offer.options
+            clicks.click(next(answers, offer.options[0]), offer.node_id)
+
+    clicks.on_offer = answer
+    with CheckCache() as cache, BenchChecks(scenario, cache=cache) as checks:
+
+        def motion(a: Action, s: list[str], r: Action, rs: list[str]) -> Motion | None:
+            return retarget(a, s, r, rs, checks)
+
+        executor = Executor(plan, clicks, retarget=motion)
+        clicks.slots = executor
+        assert executor.run() == "goal"
+    node = plan.nodes[where_id]
+    assert isinstance(node.action, SenseHumanAttachingWhere)
+    # The branch has one outcome; the buttons are every free slot of the top.
+    assert node.outcomes == [branch]
+    assert set(offered[where_id]) == set(_free_points(plan, node.state, node.action.onto))
+    event = next(e for e in executor.events if e.node == where_id)
+    assert event.outcome == branch and event.text == describe(node.action, real)
+    assert any(e.evidence and "retargeted" in e.evidence.detail for e in executor.events)

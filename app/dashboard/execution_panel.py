@@ -146,6 +146,7 @@ class ExecutionPanel:
             narrator=narrator,
             repairing=Repairer(scenario, self.store.add_plan).repair if scenario else None,
         )
+        clicks.slots = self.executor  # a humanAttachingWhere offers every free slot
         self.start_button.disabled = True
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = False
