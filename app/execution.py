@@ -215,6 +215,11 @@ class Executor:
             raise
         finally:
             self.current = None
+            # A retargeter with resources (a check cache, the robot model) frees them
+            # here, in the thread that used them.
+            close = getattr(self.retarget, "close", None)
+            if callable(close):
+                close()
             self._done.set()
         return self.result
 

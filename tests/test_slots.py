@@ -21,6 +21,7 @@ from app.outcomes import (
     ScriptedSource,
     describe,
 )
+from app.retargeting import retargeter_for
 from app.slot_map import SlotError, SlotMap, connection_points
 from planner.feasibility.cache import CheckCache
 from planner.feasibility.checks import BenchChecks
@@ -77,13 +78,14 @@ def _script_to_choice(plan: Plan) -> tuple[list[str], str, str, str]:
     raise AssertionError("no humanAttachingWhere with two free slots in this plan")
 
 
-def _run(plan: Plan, script: Path, checks: BenchChecks) -> tuple[str, list[ExecutionEvent]]:
-    def motion(a: Action, s: list[str], real: Action, rs: list[str]) -> Motion | None:
-        return retarget(a, s, real, rs, checks)
-
+def _run(plan: Plan, scenario: Scenario, script: Path) -> tuple[str, list[ExecutionEvent]]:
     source = FallbackSource(ScriptedSource(script), ExpectedSource())
-    executor = Executor(plan, source, retarget=motion)
-    return executor.run(), executor.events
+    retargeter = retargeter_for(scenario, plan)
+    assert retargeter is not None  # a plan with motions, on a geometric bench
+    executor = Executor(plan, source, retarget=retargeter)
+    result = executor.run()
+    assert retargeter._checks is None  # closed by the executor, in its thread
+    return result, executor.events
 
 
 def test_the_next_robot_motion_at_a_leg_the_human_put_elsewhere_ends_at_its_real_slot(
@@ -95,8 +97,7 @@ def test_the_next_robot_motion_at_a_leg_the_human_put_elsewhere_ends_at_its_real
     leg, onto = where.part, where.onto
     script = tmp_path / "responses.txt"
     script.write_text("\n".join([*labels, real, ""]))
-    with CheckCache() as cache, BenchChecks(scenario, cache=cache) as checks:
-        result, events = _run(plan, script, checks)
+    result, events = _run(plan, scenario, script)
     assert result == "goal"
     at = next(i for i, e in enumerate(events) if e.node == where_id)
     assert events[at].outcome == branch  # the branch is followed...

@@ -7,14 +7,13 @@ import secrets
 import signal
 import sys
 from collections.abc import Callable
-from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
 from app.cli.voice_args import voice_from_args
-from app.execution import ExecutionEvent, Executor, Narrator, Retarget
+from app.execution import ExecutionEvent, Executor, Narrator
 from app.outcomes import (
     ConsoleSource,
     ExpectedSource,
@@ -24,19 +23,18 @@ from app.outcomes import (
     ScriptedSource,
 )
 from app.repair import REPAIR, Repairer
+from app.retargeting import retargeter_for
 from app.slot_map import connection_points
 from app.store import SessionStore
-from planner.plan import Motion, Plan, PlanFormatError
-from planner.planning import bench_checks, plan_scenario
+from planner.plan import Plan, PlanFormatError
+from planner.planning import plan_scenario
 from planner.resources import find_scenario
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
-from planner.vocabulary import Action
 from speech.languages import LANGUAGES
 
 if TYPE_CHECKING:  # OpenCV is loaded only for camera runs
     from perception.intrinsics import CameraIntrinsics
-    from planner.feasibility.checks import BenchChecks
 
 
 def register(parser: argparse.ArgumentParser) -> None:
@@ -151,25 +149,6 @@ def _calibration(args: argparse.Namespace) -> CameraIntrinsics | None:
         raise BadInput(f"--calibration {err}") from err
 
 
-def _checks(scenario: Scenario | None, plan: Plan) -> AbstractContextManager[BenchChecks | None]:
-    """The motion planner that re-targets motions to the slots the human used: for a
-    scenario checked by geometry whose plan has motions (it opens nothing until asked)."""
-    if scenario is None or not any(n.motion for n in plan.nodes.values()):
-        return nullcontext()
-    return bench_checks(scenario, None, 1)
-
-
-def _retarget(checks: BenchChecks) -> Retarget:
-    from planner.feasibility.plan_motions import retarget
-
-    def motion(
-        action: Action, state: list[str], real: Action, real_state: list[str]
-    ) -> Motion | None:
-        return retarget(action, state, real, real_state, checks)
-
-    return motion
-
-
 def _print_event(event: ExecutionEvent) -> None:
     line = f"{event.seq:3d} {event.node:>5} {event.action or event.kind}"
     if event.kind == REPAIR:
@@ -227,7 +206,7 @@ def run(args: argparse.Namespace) -> int:
     note = args.note
     if seeded:
         note = f"seed {seed}" + (f"; {note}" if note else "")
-    with SessionStore(args.data_dir) as store, _checks(scenario, plan) as checks:
+    with SessionStore(args.data_dir) as store:
         session_id = store.start(plan, note=note)
         print(f"session {session_id}", flush=True)
         # A surprise (a scripted `!` line) plans again from what was observed.
@@ -239,7 +218,8 @@ def run(args: argparse.Namespace) -> int:
             args.step_delay,
             narrator=narrator,
             repairing=repairing,
-            retarget=None if checks is None else _retarget(checks),
+            # The slot the human used moves later motions: the motion planner re-targets them.
+            retarget=retargeter_for(scenario, plan),
         )
 
         def stop(signum: int, frame: FrameType | None) -> None:
