@@ -25,14 +25,14 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, Protocol
 
 from app.outcomes import Evidence, Outcome, OutcomeError, OutcomeSource, describe
 from app.repair import REPAIR, Repair, RepairFailed
 from app.slot_map import SlotError, SlotMap
 from app.surprises import Surprise, SurpriseError
 from planner.plan import Motion, Plan, PlanNode
-from planner.vocabulary import Action, SenseHumanAttachingWhere
+from planner.vocabulary import Action, Attach, Hands, SenseHumanAttachingWhere
 
 Result = Literal["goal", "aborted", "interrupted", "dead-end"]
 RESULTS: tuple[Result, ...] = ("goal", "aborted", "interrupted", "dead-end")
@@ -72,9 +72,23 @@ Listener = Callable[[ExecutionEvent], None]
 Repairing = Callable[[PlanNode, Surprise], tuple[Repair, str]]
 # Speaks a communication node's sentence; what it returns is kept with the event.
 Narrator = Callable[[str, PlanNode], Evidence | None]
-# The motion of the real action in the real state, given the branch's action and
-# state first; None when the branch's stored motion goes there already.
-Retarget = Callable[[Action, list[str], Action, list[str]], Motion | None]
+
+
+class Retarget(Protocol):
+    """The motion planner behind re-targeting (app.retargeting.MotionRetargeter)."""
+
+    def motion(
+        self, action: Action, state: list[str], real: Action, real_state: list[str]
+    ) -> Motion | None:
+        """The motion of `real` in `real_state` (the branch's `action` in `state`, at the
+        world's slots); None when the branch's stored motion goes there already."""
+        ...
+
+    def reaches(self, arm: str, onto: str, point: str, real_state: list[str]) -> bool:
+        """Can `arm` work at `onto`'s point `point` where `real_state` places it?"""
+        ...
+
+    def close(self) -> None: ...
 
 
 def merged(first: Evidence | None, second: Evidence | None) -> Evidence | None:
@@ -215,11 +229,8 @@ class Executor:
             raise
         finally:
             self.current = None
-            # A retargeter with resources (a check cache, the robot model) frees them
-            # here, in the thread that used them.
-            close = getattr(self.retarget, "close", None)
-            if callable(close):
-                close()
+            if self.retarget is not None:
+                self.retarget.close()  # its check cache, in the thread that used it
             self._done.set()
         return self.result
 
@@ -360,19 +371,45 @@ class Executor:
     def _motion(self, node: PlanNode) -> tuple[Motion | None, Evidence | None]:
         """The node's motion where the world's slots are the branch's; else, re-targeted
         to the real slots, with evidence saying so and keeping the new motion."""
-        if node.motion is None or node.action is None or self.slots.identity:
+        if node.motion is None or node.action is None:
+            return node.motion, None
+        chosen = self._robot_slot(node.action, node.state)
+        if self.slots.identity:
             return node.motion, None
         real = self.slots.action(node.action)
         state = self.slots.state(node.state)
         if real == node.action and sorted(state) == sorted(node.state):
             return node.motion, None
         detail: dict[str, object] = {"slots": self.slots.to_json(), "real_action": str(real)}
+        if chosen:
+            detail["robot_slot"] = chosen
         if self.retarget is None:
             return node.motion, Evidence({**detail, "retargeted": "no motion planner"})
-        motion = self.retarget(node.action, node.state, real, state)
+        motion = self.retarget.motion(node.action, node.state, real, state)
         if motion is None:
             return node.motion, None
         return motion, Evidence({**detail, "retargeted": motion.model_dump()})
+
+    def _robot_slot(self, action: Action, state: list[str]) -> dict[str, str] | None:
+        """The branch's slot means "whichever free slot": when the acting arm cannot reach
+        the one it names, the robot attaches at the first free one it reaches (followed
+        like a human's choice). Only on a part attached to nothing, whose points lie apart,
+        and not held by the other arm (which brings it over)."""
+        if not isinstance(action, Attach) or self.retarget is None:
+            return None
+        real_state = self.slots.state(state)
+        hands = Hands.of(real_state)
+        if action.onto in hands.attached or action.onto in hands.holding.values():
+            return None
+        real = self.slots.real(action.onto, action.slot)
+        if self.retarget.reaches(action.arm, action.onto, real, real_state):
+            return None
+        for point in self.slots.free(action.onto, state):
+            if self.retarget.reaches(action.arm, action.onto, point, real_state):
+                self.slots.follow(action.onto, action.slot, point, state)
+                return {"onto": action.onto, "branch": action.slot, "real": point,
+                        "why": f"{action.arm} cannot reach {real}"}  # fmt: skip
+        return None
 
     def _repair(self, node_id: str, node: PlanNode, outcome: Outcome) -> str | None:
         """Plans again from what was observed and switches to that plan; its root, or

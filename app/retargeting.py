@@ -12,9 +12,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from planner.feasibility.scene import site_of
 from planner.plan import Motion, Plan
 from planner.scenario_model import Scenario
-from planner.vocabulary import Action
+from planner.vocabulary import Action, Hands
 
 if TYPE_CHECKING:  # pybullet and OMPL load only when a motion is re-targeted
     from planner.feasibility.cache import CheckCache
@@ -22,18 +23,24 @@ if TYPE_CHECKING:  # pybullet and OMPL load only when a motion is re-targeted
 
 
 class MotionRetargeter:
+    """`app.execution.Retarget` with the cached checks of `scenario`'s bench."""
+
     def __init__(self, scenario: Scenario, cache_dir: Path | str | None = None) -> None:
         self.scenario = scenario
         self.cache_dir = cache_dir
         self._cache: CheckCache | None = None
         self._checks: BenchChecks | None = None
 
-    def __call__(
+    def motion(
         self, action: Action, state: list[str], real: Action, real_state: list[str]
     ) -> Motion | None:
         from planner.feasibility.plan_motions import retarget
 
         return retarget(action, state, real, real_state, self._open())
+
+    def reaches(self, arm: str, onto: str, point: str, real_state: list[str]) -> bool:
+        site = site_of(Hands.of(real_state).attached, onto, point)
+        return self._open().reach_site(arm, site).reachable
 
     def _open(self) -> BenchChecks:
         if self._checks is None:

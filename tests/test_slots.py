@@ -7,6 +7,7 @@ import copy
 import json
 import math
 from collections import deque
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -25,13 +26,12 @@ from app.retargeting import retargeter_for
 from app.slot_map import SlotError, SlotMap, connection_points
 from planner.feasibility.cache import CheckCache
 from planner.feasibility.checks import BenchChecks
-from planner.feasibility.plan_motions import retarget
 from planner.feasibility.reach import POS_TOL, World
 from planner.feasibility.scene import Site, site_of
-from planner.plan import Motion, Plan
+from planner.plan import Plan
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
-from planner.vocabulary import Action, Attach, Hands, SenseHumanAttachingWhere
+from planner.vocabulary import Attach, Hands, SenseHumanAttachingWhere
 from tests.plan_fixtures import SCENARIOS, plan_of, tandem
 
 # Three slots on the top: when the human attaches the first of their legs, two are free.
@@ -55,27 +55,41 @@ def _free_points(plan: Plan, state: list[str], onto: str) -> list[str]:
     return [c for c in connection_points(plan.facts)[onto] if c not in taken]
 
 
-def _script_to_choice(plan: Plan) -> tuple[list[str], str, str, str]:
-    """The outcome labels from the root to the first humanAttachingWhere with two free
-    slots (breadth first), then that node's id, its branch slot and another free one."""
+def _path_to(plan: Plan, wanted: Callable[[str], bool]) -> tuple[list[str], str]:
+    """The outcome labels from the root to the first node that is `wanted` (breadth
+    first), and that node."""
     queue = deque([(plan.root, list[str]())])
     seen = {plan.root}
     while queue:
         node_id, labels = queue.popleft()
-        node = plan.nodes[node_id]
-        action = node.action
-        if isinstance(action, SenseHumanAttachingWhere):
-            free = _free_points(plan, node.state, action.onto)
-            if len(free) >= 2:
-                branch = node.outcomes[0]
-                other = next(c for c in free if c != branch)
-                return labels, node_id, branch, other
-        for child in node.children:
+        if wanted(node_id):
+            return labels, node_id
+        for child in plan.nodes[node_id].children:
             if child.node not in seen:
                 seen.add(child.node)
                 more = [child.outcome] if child.outcome is not None else []
                 queue.append((child.node, labels + more))
-    raise AssertionError("no humanAttachingWhere with two free slots in this plan")
+    raise AssertionError("no such node in this plan")
+
+
+def _script_to_choice(plan: Plan) -> tuple[list[str], str, str, str]:
+    """The outcome labels from the root to the first humanAttachingWhere with two free
+    slots, then that node's id, its branch slot and another free one."""
+
+    def two_free(node_id: str) -> bool:
+        node = plan.nodes[node_id]
+        action = node.action
+        return (
+            isinstance(action, SenseHumanAttachingWhere)
+            and len(_free_points(plan, node.state, action.onto)) >= 2
+        )
+
+    labels, node_id = _path_to(plan, two_free)
+    node = plan.nodes[node_id]
+    assert isinstance(node.action, SenseHumanAttachingWhere)
+    branch = node.outcomes[0]
+    other = next(c for c in _free_points(plan, node.state, node.action.onto) if c != branch)
+    return labels, node_id, branch, other
 
 
 def _run(plan: Plan, scenario: Scenario, script: Path) -> tuple[str, list[ExecutionEvent]]:
@@ -236,14 +250,9 @@ def test_clicks_offer_every_free_slot_and_a_click_elsewhere_is_followed(
             clicks.click(next(answers, offer.options[0]), offer.node_id)
 
     clicks.on_offer = answer
-    with CheckCache() as cache, BenchChecks(scenario, cache=cache) as checks:
-
-        def motion(a: Action, s: list[str], r: Action, rs: list[str]) -> Motion | None:
-            return retarget(a, s, r, rs, checks)
-
-        executor = Executor(plan, clicks, retarget=motion)
-        clicks.slots = executor
-        assert executor.run() == "goal"
+    executor = Executor(plan, clicks, retarget=retargeter_for(scenario, plan))
+    clicks.slots = executor
+    assert executor.run() == "goal"
     node = plan.nodes[where_id]
     assert isinstance(node.action, SenseHumanAttachingWhere)
     # The branch has one outcome; the buttons are every free slot of the top.
@@ -252,3 +261,40 @@ def test_clicks_offer_every_free_slot_and_a_click_elsewhere_is_followed(
     event = next(e for e in executor.events if e.node == where_id)
     assert event.outcome == branch and event.text == describe(node.action, real)
     assert any(e.evidence and "retargeted" in e.evidence.detail for e in executor.events)
+
+
+def test_the_robot_attaches_at_a_free_slot_it_reaches_when_the_named_one_is_out_of_reach(
+    tmp_path: Path,
+) -> None:
+    from planner.audit_slots import slot_problems
+
+    path = SCENARIOS / "paper" / "paper-03.toml"  # its left arm cannot reach the top's c3
+    scenario, plan = load_scenario(path), plan_of(path)
+    retargeter = retargeter_for(scenario, plan)
+    assert retargeter is not None
+
+    def out_of_reach(node_id: str) -> bool:
+        action = plan.nodes[node_id].action
+        return (
+            isinstance(action, Attach) and action.onto == "top"
+            and not retargeter.reaches(action.arm, "top", action.slot, plan.nodes[node_id].state)
+        )  # fmt: skip
+
+    labels, node_id = _path_to(plan, out_of_reach)
+    retargeter.close()
+    action = plan.nodes[node_id].action
+    assert isinstance(action, Attach)
+    # The plan's stored motion cannot go there: the audit says so.
+    flagged = dict(slot_problems(plan.to_json(), scenario))
+    assert f"from the site of top's {action.slot}" in flagged[node_id]
+    script = tmp_path / "responses.txt"
+    script.write_text("\n".join([*labels, ""]))
+    result, events = _run(plan, scenario, script)
+    assert result == "goal"
+    event = next(e for e in events if e.node == node_id)
+    assert event.evidence is not None and event.motion is not None
+    chosen = event.evidence.detail["robot_slot"]
+    assert chosen["branch"] == action.slot and chosen["real"] != action.slot
+    with World(scenario) as world:
+        end = world.endpoint(action.arm, event.motion.path[-1])
+        assert math.dist(end, world.site_target(Site("top", chosen["real"]))) <= POS_TOL
