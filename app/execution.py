@@ -12,7 +12,7 @@ question is asked): it speaks the sentence and returns what to keep of that
 synchronously (`run()`) or in its own thread (`start()`), and can be paused,
 single-stepped, resumed and aborted from any thread.
 
-Slots follow the world (app.slot_map): when the human attaches at another free
+Slots follow the world (planner.feasibility.slot_map): when the human attaches at another free
 slot than the branch names (an outcome with a `slot`), the executor keeps to the
 branch, remembers the real slot, and hands every later robot motion whose target
 moved to `retarget` (the motion planner), so the event carries the motion the
@@ -29,10 +29,11 @@ from typing import Literal, Protocol
 
 from app.outcomes import Evidence, Outcome, OutcomeError, OutcomeSource, describe
 from app.repair import REPAIR, Repair, RepairFailed
-from app.slot_map import SlotError, SlotMap
 from app.surprises import Surprise, SurpriseError
+from planner.feasibility.scene import Site
+from planner.feasibility.slot_map import SLOTS, SlotError, SlotMap, robot_choice
 from planner.plan import Motion, Plan, PlanNode
-from planner.vocabulary import Action, Attach, Hands, SenseHumanAttachingWhere
+from planner.vocabulary import Action, Hands, SenseHumanAttachingWhere
 
 Result = Literal["goal", "aborted", "interrupted", "dead-end"]
 RESULTS: tuple[Result, ...] = ("goal", "aborted", "interrupted", "dead-end")
@@ -84,8 +85,8 @@ class Retarget(Protocol):
         world's slots); None when the branch's stored motion goes there already."""
         ...
 
-    def reaches(self, arm: str, onto: str, point: str, real_state: list[str]) -> bool:
-        """Can `arm` work at `onto`'s point `point` where `real_state` places it?"""
+    def reaches(self, arm: str, site: Site) -> bool:
+        """Can `arm` work at `site`?"""
         ...
 
     def close(self) -> None: ...
@@ -338,78 +339,65 @@ class Executor:
             return outcome
 
     def _follow_slot(self, node_id: str, node: PlanNode, outcome: Outcome) -> Evidence | None:
-        """Maps the branch's slot onto the one the human used, if they differ."""
-        if outcome.slot is None:
+        """Maps the branch's point onto the one the human used (both in the plan's names:
+        the map says where that is in the world), if they differ."""
+        if outcome.slot is None or outcome.slot == outcome.label:
             return None
         action = node.action
         if not isinstance(action, SenseHumanAttachingWhere):
             raise OutcomeError(f"{node.action} at {node_id} has no slot to observe")
-        if outcome.slot == self.slots.real(action.onto, outcome.label):
-            return None  # where the branch's slot is in the world already
+        if outcome.slot not in self.slot_choices(node):
+            raise OutcomeError(
+                f"{node.action} at {node_id}: {action.onto} has no free point {outcome.slot} "
+                f"(free: {', '.join(self.slot_choices(node))})"
+            )
+        real = self.slots.real(action.onto, outcome.slot)
         try:
-            self.slots.follow(action.onto, outcome.label, outcome.slot, node.state)
+            self.slots.follow(action.onto, outcome.label, real, node.state)
         except SlotError as err:
             raise OutcomeError(f"{node.action} at {node_id}: {err}") from None
-        slot = {"onto": action.onto, "branch": outcome.label, "real": outcome.slot}
+        slot = {"onto": action.onto, "branch": outcome.label, "used": outcome.slot, "real": real}
         return Evidence({"slot": slot, "slots": self.slots.to_json()})
 
     def slot_choices(self, node: PlanNode) -> list[str]:
-        """Where the human can attach at a humanAttachingWhere node: the real free points."""
+        """Where the human can attach at a humanAttachingWhere node: the free points, in
+        the plan's names."""
         action = node.action
         if not isinstance(action, SenseHumanAttachingWhere):
             return []
-        return self.slots.free(action.onto, node.state)
+        taken = {point for onto, point in Hands.of(node.state).attached.values()
+                 if onto == action.onto}  # fmt: skip
+        return [p for p in self.slots.points.get(action.onto, []) if p not in taken]
 
-    def slot_label(self, node: PlanNode, options: Sequence[str], real: str) -> str:
-        """The outcome label for attaching at real point `real` (then followed there):
-        the branch's name of that point if the node has it, else its first outcome."""
-        action = node.action
-        assert isinstance(action, SenseHumanAttachingWhere)
-        branch = self.slots.branch(action.onto, real)
-        return branch if branch in options else options[0]
+    def slot_label(self, node: PlanNode, options: Sequence[str], point: str) -> str:
+        """The outcome label for attaching at `point`: the point itself if the node has
+        that outcome, else its first (and the executor follows `point`)."""
+        return point if point in options else options[0]
 
     def _motion(self, node: PlanNode) -> tuple[Motion | None, Evidence | None]:
-        """The node's motion where the world's slots are the branch's; else, re-targeted
-        to the real slots, with evidence saying so and keeping the new motion."""
+        """The node's stored motion where the world's slots are those it assumes; else
+        re-targeted to the world's, with evidence saying so and keeping the new motion."""
         if node.motion is None or node.action is None:
             return node.motion, None
-        chosen = self._robot_slot(node.action, node.state)
-        if self.slots.identity:
+        chosen = None
+        if self.retarget is not None:
+            chosen = robot_choice(self.slots, node.action, node.state, self.retarget.reaches)
+        planned = SlotMap(self.plan.facts, (node.model_extra or {}).get(SLOTS))
+        if planned == self.slots:
             return node.motion, None
-        real = self.slots.action(node.action)
-        state = self.slots.state(node.state)
-        if real == node.action and sorted(state) == sorted(node.state):
+        assumed = planned.action(node.action), planned.state(node.state)
+        real = self.slots.action(node.action), self.slots.state(node.state)
+        if assumed[0] == real[0] and sorted(assumed[1]) == sorted(real[1]):
             return node.motion, None
-        detail: dict[str, object] = {"slots": self.slots.to_json(), "real_action": str(real)}
+        detail: dict[str, object] = {"slots": self.slots.to_json(), "real_action": str(real[0])}
         if chosen:
             detail["robot_slot"] = chosen
         if self.retarget is None:
             return node.motion, Evidence({**detail, "retargeted": "no motion planner"})
-        motion = self.retarget.motion(node.action, node.state, real, state)
+        motion = self.retarget.motion(*assumed, *real)
         if motion is None:
             return node.motion, None
         return motion, Evidence({**detail, "retargeted": motion.model_dump()})
-
-    def _robot_slot(self, action: Action, state: list[str]) -> dict[str, str] | None:
-        """The branch's slot means "whichever free slot": when the acting arm cannot reach
-        the one it names, the robot attaches at the first free one it reaches (followed
-        like a human's choice). Only on a part attached to nothing, whose points lie apart,
-        and not held by the other arm (which brings it over)."""
-        if not isinstance(action, Attach) or self.retarget is None:
-            return None
-        real_state = self.slots.state(state)
-        hands = Hands.of(real_state)
-        if action.onto in hands.attached or action.onto in hands.holding.values():
-            return None
-        real = self.slots.real(action.onto, action.slot)
-        if self.retarget.reaches(action.arm, action.onto, real, real_state):
-            return None
-        for point in self.slots.free(action.onto, state):
-            if self.retarget.reaches(action.arm, action.onto, point, real_state):
-                self.slots.follow(action.onto, action.slot, point, state)
-                return {"onto": action.onto, "branch": action.slot, "real": point,
-                        "why": f"{action.arm} cannot reach {real}"}  # fmt: skip
-        return None
 
     def _repair(self, node_id: str, node: PlanNode, outcome: Outcome) -> str | None:
         """Plans again from what was observed and switches to that plan; its root, or
@@ -419,9 +407,9 @@ class Executor:
         try:
             if self.repairing is None:
                 raise RepairFailed("this execution cannot plan again")
-            # From the world's state: the branch's slots renamed to the real ones.
-            seen = node.model_copy(update={"state": self.slots.state(node.state)})
-            repair, digest = self.repairing(seen, surprise)
+            # In the plan's names, as the surprise is: the new plan keeps them, and the
+            # slot map goes on saying where they are in the world.
+            repair, digest = self.repairing(node, surprise)
         except (RepairFailed, SurpriseError) as err:
             self._emit(node_id, node, source=outcome.source, text=f"surprise ignored: {err}")
             return None
@@ -442,7 +430,6 @@ class Executor:
             listener(event)
         self.plan = repair.plan
         self.nodes = repair.plan.nodes
-        self.slots = SlotMap(repair.plan.facts)  # the new plan starts from the real slots
         return repair.plan.root
 
     def _emit_stop(self, node_id: str, reason: str) -> None:

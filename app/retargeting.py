@@ -1,4 +1,4 @@
-"""The motion planner behind an execution's re-targeting (app.slot_map, app.execution).
+"""The motion planner behind an execution's re-targeting (see planner.feasibility.slot_map).
 
 A `MotionRetargeter` answers the executor's `retarget` for a scenario checked by
 geometry: the motion of the real action in the real state, through the same cached
@@ -12,10 +12,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from planner.feasibility.scene import site_of
+from planner.feasibility.scene import Site
 from planner.plan import Motion, Plan
 from planner.scenario_model import Scenario
-from planner.vocabulary import Action, Hands
+from planner.vocabulary import Action
 
 if TYPE_CHECKING:  # pybullet and OMPL load only when a motion is re-targeted
     from planner.feasibility.cache import CheckCache
@@ -38,8 +38,7 @@ class MotionRetargeter:
 
         return retarget(action, state, real, real_state, self._open())
 
-    def reaches(self, arm: str, onto: str, point: str, real_state: list[str]) -> bool:
-        site = site_of(Hands.of(real_state).attached, onto, point)
+    def reaches(self, arm: str, site: Site) -> bool:
         return self._open().reach_site(arm, site).reachable
 
     def _open(self) -> BenchChecks:

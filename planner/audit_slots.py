@@ -8,6 +8,9 @@ of Q's point C as the state places Q (or, when the other arm holds Q's assembly,
 the arm may stay at its grasp: that arm brings the assembly over); `unhold(M)`
 starts where the held part was attached. "Over" means the gripper endpoint within
 `POS_TOL` of the top-down grasp position, the tolerance inverse kinematics met.
+A node whose motion assumes other real points than its names (`slots`: the robot
+took another free slot on the way, planner.feasibility.slot_map) is judged through that map,
+which must be one to one and put an attach on a free point.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from typing import Any
 
 from planner.feasibility.reach import POS_TOL, World
 from planner.feasibility.scene import site_of
+from planner.feasibility.slot_map import SLOTS, SlotMap
 from planner.scenario_model import Scenario
 from planner.vocabulary import Attach, Hands, Hold, TermError, Unhold, parse_action
 
@@ -26,18 +30,19 @@ Point = tuple[float, float, float]
 def slot_problems(plan: dict[str, Any], scenario: Scenario) -> list[tuple[str, str]]:
     """(node id, message) for every motion of `plan` that misses its place."""
     nodes = plan.get("nodes")
-    if not isinstance(nodes, dict):
+    facts = plan.get("facts")
+    if not isinstance(nodes, dict) or not isinstance(facts, list):
         return []
     out: list[tuple[str, str]] = []
     with World(scenario) as world:
         for node_id, node in nodes.items():
-            message = _check(world, node)
+            message = _check(world, node, [str(f) for f in facts])
             if message:
                 out.append((node_id, message))
     return out
 
 
-def _check(world: World, node: dict[str, Any]) -> str:
+def _check(world: World, node: dict[str, Any], facts: list[str]) -> str:
     motion = node.get("motion")
     if node.get("kind") != "actuation" or not isinstance(motion, dict):
         return ""
@@ -48,7 +53,19 @@ def _check(world: World, node: dict[str, Any]) -> str:
     arm, path = motion.get("arm"), motion.get("path")
     if not (isinstance(arm, str) and isinstance(path, list) and path):
         return ""  # a malformed motion: audit_motion names it
-    hands = Hands.of(node.get("state", []))
+    raw = node.get(SLOTS) or {}
+    if not (isinstance(raw, dict) and all(isinstance(m, dict) for m in raw.values())):
+        return "slots is not a map of part -> {name: point}"
+    slots = SlotMap(facts, raw)
+    if slots.problems():
+        return slots.problems()[0]
+    state = [str(f) for f in node.get("state", [])]
+    if isinstance(action, Attach):
+        real = slots.real(action.onto, action.slot)
+        if real not in slots.free(action.onto, state):
+            return f"attach at {action.onto}'s {real}, which its slot map says is taken"
+    action = slots.action(action)
+    hands = Hands.of(slots.state(state))
 
     def grasp(part: str) -> Point:
         box = world.scene.parts[part]

@@ -23,11 +23,18 @@ from app.outcomes import (
     describe,
 )
 from app.retargeting import retargeter_for
-from app.slot_map import SlotError, SlotMap, connection_points
+from planner.audit import audit
 from planner.feasibility.cache import CheckCache
 from planner.feasibility.checks import BenchChecks
 from planner.feasibility.reach import POS_TOL, World
 from planner.feasibility.scene import Site, site_of
+from planner.feasibility.slot_map import (
+    ROBOT_SLOT,
+    SLOTS,
+    SlotError,
+    SlotMap,
+    connection_points,
+)
 from planner.plan import Plan
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
@@ -117,7 +124,8 @@ def test_the_next_robot_motion_at_a_leg_the_human_put_elsewhere_ends_at_its_real
     assert events[at].outcome == branch  # the branch is followed...
     seen = events[at].evidence
     assert seen is not None
-    assert seen.detail["slot"] == {"onto": onto, "branch": branch, "real": real}
+    # In the plan's names, and in the world's (the same here: no slot was taken before).
+    assert seen.detail["slot"] == {"onto": onto, "branch": branch, "used": real, "real": real}
     # ...and the next robot motion working at that leg (a foot onto it) goes to its real slot.
     onto_leg = next(
         e for e in events[at:] if e.action is not None and e.action.startswith("attach(")
@@ -268,33 +276,39 @@ def test_the_robot_attaches_at_a_free_slot_it_reaches_when_the_named_one_is_out_
 ) -> None:
     from planner.audit_slots import slot_problems
 
-    path = SCENARIOS / "paper" / "paper-03.toml"  # its left arm cannot reach the top's c3
+    path = SCENARIOS / "default.toml"  # the left arm reaches only the top's c2
     scenario, plan = load_scenario(path), plan_of(path)
-    retargeter = retargeter_for(scenario, plan)
-    assert retargeter is not None
-
-    def out_of_reach(node_id: str) -> bool:
-        action = plan.nodes[node_id].action
-        return (
-            isinstance(action, Attach) and action.onto == "top"
-            and not retargeter.reaches(action.arm, "top", action.slot, plan.nodes[node_id].state)
-        )  # fmt: skip
-
-    labels, node_id = _path_to(plan, out_of_reach)
-    retargeter.close()
-    action = plan.nodes[node_id].action
-    assert isinstance(action, Attach)
-    # The plan's stored motion cannot go there: the audit says so.
-    flagged = dict(slot_problems(plan.to_json(), scenario))
-    assert f"from the site of top's {action.slot}" in flagged[node_id]
+    labels, node_id = _path_to(plan, lambda n: ROBOT_SLOT in (plan.nodes[n].model_extra or {}))
+    node = plan.nodes[node_id]
+    action, extra = node.action, node.model_extra or {}
+    assert isinstance(action, Attach) and node.motion is not None
+    chosen = extra[ROBOT_SLOT]
+    assert chosen["branch"] == action.slot and chosen["real"] != action.slot
+    assert extra[SLOTS] == {"top": {action.slot: chosen["real"], chosen["real"]: action.slot}}
+    with World(scenario) as world:
+        end = world.endpoint(action.arm, node.motion.path[-1])
+        assert math.dist(end, world.site_target(Site("top", chosen["real"]))) <= POS_TOL
+    # The plan's motions are where its slot maps say, and its branches continuous.
+    assert slot_problems(plan.to_json(), scenario) == []
+    assert audit(plan.to_json()) == []
+    # Executing that branch takes the same slot: the stored motions need no re-targeting.
     script = tmp_path / "responses.txt"
     script.write_text("\n".join([*labels, ""]))
     result, events = _run(plan, scenario, script)
     assert result == "goal"
     event = next(e for e in events if e.node == node_id)
-    assert event.evidence is not None and event.motion is not None
-    chosen = event.evidence.detail["robot_slot"]
-    assert chosen["branch"] == action.slot and chosen["real"] != action.slot
-    with World(scenario) as world:
-        end = world.endpoint(action.arm, event.motion.path[-1])
-        assert math.dist(end, world.site_target(Site("top", chosen["real"]))) <= POS_TOL
+    assert event.motion == node.motion and event.evidence is None
+    assert not any(e.evidence and "retargeted" in e.evidence.detail for e in events)
+
+
+
+
+def test_audit_flags_a_slot_map_that_is_not_one_to_one() -> None:
+    from planner.audit_slots import slot_problems
+
+    path = SCENARIOS / "default.toml"
+    doc = plan_of(path).to_json()
+    node_id = next(i for i, n in doc["nodes"].items() if ROBOT_SLOT in n)
+    doc["nodes"][node_id][SLOTS] = {"top": {"c1": "c2"}}  # c2 stands for c2 as well
+    problems = dict(slot_problems(doc, load_scenario(path)))
+    assert problems[node_id] == "the slot map of top is not one to one over its points"

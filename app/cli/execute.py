@@ -24,8 +24,8 @@ from app.outcomes import (
 )
 from app.repair import REPAIR, Repairer
 from app.retargeting import retargeter_for
-from app.slot_map import connection_points
 from app.store import SessionStore
+from planner.feasibility.slot_map import connection_points
 from planner.plan import Plan, PlanFormatError
 from planner.planning import plan_scenario
 from planner.resources import find_scenario

@@ -16,9 +16,12 @@ the human used another slot than the branch names (the real state differs).
 
 from __future__ import annotations
 
+from collections import deque
+
 from planner.feasibility.arms import joint_names
 from planner.feasibility.checks import BenchChecks, Place
-from planner.feasibility.scene import site_of
+from planner.feasibility.scene import Site, site_of
+from planner.feasibility.slot_map import ROBOT_SLOT, SLOTS, SlotMap, robot_choice
 from planner.plan import Motion, Plan
 from planner.vocabulary import Action, Attach, Hands, Hold, Unhold
 
@@ -29,12 +32,24 @@ Endpoints = tuple[str, Place | None, Place | None]  # arm, from, to (None: home)
 
 def add_motions(plan: Plan, checks: BenchChecks) -> int:
     """Adds its `motion` to every actuation node of `plan`; returns how many distinct
-    motions the plan uses."""
-    nodes = [
-        (node, endpoints(node.action, node.state, checks))
-        for node in plan.nodes.values()
-        if node.kind == "actuation" and node.action is not None
-    ]
+    motions the plan uses. A node whose motion assumes slots other than its names
+    (the robot took another free slot on the way: planner.feasibility.slot_map) keeps that map
+    as `slots`."""
+    maps, choices = _slot_maps(plan, checks)
+    nodes = []
+    for node_id, node in plan.nodes.items():
+        slots = maps.get(node_id) or SlotMap(plan.facts)
+        extra = node.model_extra if node.model_extra is not None else {}
+        extra.pop(SLOTS, None)
+        extra.pop(ROBOT_SLOT, None)
+        if not slots.identity:
+            setattr(node, SLOTS, slots.to_json())
+        if node_id in choices:
+            setattr(node, ROBOT_SLOT, choices[node_id])
+        if node.kind != "actuation" or node.action is None:
+            continue
+        action, state = slots.action(node.action), slots.state(node.state)
+        nodes.append((node, endpoints(action, state, checks)))
     # Part-to-part motions are asked for all at once, so the pool plans them side by side.
     checks.prefetch_moves(
         (arm, start, goal) for _, (arm, start, goal) in nodes if start is not None and goal
@@ -45,6 +60,42 @@ def add_motions(plan: Plan, checks: BenchChecks) -> int:
             seen[ends] = _motion(ends, checks)
         node.motion = seen[ends].model_copy(deep=True)
     return len(seen)
+
+
+def _slot_maps(
+    plan: Plan, checks: BenchChecks
+) -> tuple[dict[str, SlotMap], dict[str, dict[str, str]]]:
+    """The slot map each node's motion assumes: the robot's choices on the way from the
+    root (`robot_choice`), parents first, and the choices by node. A node reached with
+    two maps keeps its first parent's (rare: five merges on paper-03 and -04 each);
+    execution re-targets when it comes the other way."""
+
+    def reaches(arm: str, site: Site) -> bool:
+        return checks.reach_site(arm, site).reachable
+
+    indegree: dict[str, int] = {}
+    for node in plan.nodes.values():
+        for child in node.children:
+            indegree[child.node] = indegree.get(child.node, 0) + 1
+    maps = {plan.root: SlotMap(plan.facts)}
+    choices: dict[str, dict[str, str]] = {}
+    ready = deque([plan.root])
+    while ready:
+        node_id = ready.popleft()
+        node = plan.nodes[node_id]
+        slots = maps[node_id]
+        if isinstance(node.action, Attach):
+            chosen = slots.copy()
+            choice = robot_choice(chosen, node.action, node.state, reaches)
+            if choice is not None:
+                slots = maps[node_id] = chosen  # its own motion goes to the chosen slot
+                choices[node_id] = choice
+        for child in node.children:
+            maps.setdefault(child.node, slots)
+            indegree[child.node] -= 1
+            if indegree[child.node] == 0:
+                ready.append(child.node)
+    return maps, choices
 
 
 def motion_of(action: Action, state: list[str], checks: BenchChecks) -> Motion:
