@@ -10,8 +10,11 @@ and brought it over). So
 - `attach(M,Q,C)`: the grasp of the held part to the site of Q's point C;
 - `unhold(M)`: from there back home.
 
-`motion_of` answers for one action in one state: the executor asks it again when
-the human used another slot than the branch names (the real state differs).
+The point C is the one the node's slot map says C stands for: the identity, unless
+on the way from the root the robot took another free slot because its arm could
+not reach the one named (slot_map.robot_choice); such nodes keep the map (`slots`).
+`retarget` answers for one action in one state: the executor asks it when the
+world's slots differ from those a node assumes (the human used another one).
 """
 
 from __future__ import annotations
@@ -96,11 +99,6 @@ def _slot_maps(
             if indegree[child.node] == 0:
                 ready.append(child.node)
     return maps, choices
-
-
-def motion_of(action: Action, state: list[str], checks: BenchChecks) -> Motion:
-    """The motion of actuation `action` in `state` (cached by `checks`)."""
-    return _motion(endpoints(action, state, checks), checks)
 
 
 def _motion(ends: Endpoints, checks: BenchChecks) -> Motion:
