@@ -12,11 +12,13 @@ question is asked): it speaks the sentence and returns what to keep of that
 synchronously (`run()`) or in its own thread (`start()`), and can be paused,
 single-stepped, resumed and aborted from any thread.
 
-Slots follow the world (planner.feasibility.slot_map): when the human attaches at another free
-slot than the branch names (an outcome with a `slot`), the executor keeps to the
-branch, remembers the real slot, and hands every later robot motion whose target
-moved to `retarget` (the motion planner), so the event carries the motion the
-robot really makes; its evidence keeps that motion for the session.
+Slots follow the world (planner.feasibility.slot_map): outcomes speak the plan's
+names, and the executor keeps a slot map from those names to the world's points.
+When the human attaches at another free slot than the branch names (an outcome
+with a `slot`), or the robot's arm cannot reach the one its attach names, the
+executor keeps to the branch and updates the map; a motion whose node assumes
+another map (its `slots`) goes to `retarget` (the motion planner), so the event
+carries the motion the robot really makes, and its evidence keeps it.
 """
 
 from __future__ import annotations
@@ -47,7 +49,8 @@ class ExecutionEvent:
     `kind` is the node's kind (actuation, sensing, communication, goal);
     `outcome` is the branch taken (None after a deterministic node); `text`
     is what the robot said, or the outcome in words. `motion` (actuation
-    only) is the node's `{arm, joints, path}`; it is not stored, the plan has it.
+    only) is the node's `{arm, joints, path}`; it is not stored, the plan has it
+    (a re-targeted one is, in the evidence).
     An interrupted walk ends with an event of kind `interrupted` at the node it
     stood at, saying why (it is not a step of the plan).
     `evidence` is what decided the answer (a camera frame, the words heard),
