@@ -312,3 +312,35 @@ def test_audit_flags_a_slot_map_that_is_not_one_to_one() -> None:
     doc["nodes"][node_id][SLOTS] = {"top": {"c1": "c2"}}  # c2 stands for c2 as well
     problems = dict(slot_problems(doc, load_scenario(path)))
     assert problems[node_id] == "the slot map of top is not one to one over its points"
+
+
+def test_after_a_repair_the_world_keeps_its_slots_and_the_new_plan_is_re_targeted(
+    tmp_path: Path,
+) -> None:
+    from app.repair import REPAIR, Repairer
+
+    # The default plan's left arm put leg1 at the top's real c2 (it cannot reach c1);
+    # the human then attaches leg2 at the plan's c2, which is the real c1.
+    path = SCENARIOS / "default.toml"
+    scenario, plan = load_scenario(path), plan_of(path)
+    script = tmp_path / "responses.txt"
+    script.write_text("!attach leg2 top c2\n")
+    source = FallbackSource(ScriptedSource(script), ExpectedSource())
+    repairer = Repairer(scenario, lambda p: "new")
+    executor = Executor(
+        plan, source, repairing=repairer.repair, retarget=retargeter_for(scenario, plan)
+    )
+    assert executor.run() == "goal"
+    at = next(i for i, e in enumerate(executor.events) if e.kind == REPAIR)
+    feet = [
+        e for e in executor.events[at:]
+        if e.action is not None and e.action.startswith("attach(") and e.motion is not None
+    ]  # fmt: skip
+    assert {e.action for e in feet} == {"attach(left,leg1,foot)", "attach(right,leg2,foot)"}
+    real = {"leg1": "c2", "leg2": "c1"}
+    with World(scenario) as world:
+        for e in feet:
+            assert e.motion is not None and e.action is not None
+            leg = e.action.split(",")[1]
+            end = world.endpoint(e.motion.arm, e.motion.path[-1])
+            assert math.dist(end, world.site_target(Site("top", real[leg]))) <= POS_TOL
