@@ -33,7 +33,7 @@ from app.outcomes import Evidence, Outcome, OutcomeError, OutcomeSource, describ
 from app.repair import REPAIR, Repair, RepairFailed
 from app.surprises import Surprise, SurpriseError
 from planner.feasibility.scene import Site
-from planner.feasibility.slot_map import SLOTS, SlotError, SlotMap, robot_choice
+from planner.feasibility.slot_map import ROBOT_SLOT, SLOTS, SlotError, SlotMap, robot_choice
 from planner.plan import Motion, Plan, PlanNode
 from planner.vocabulary import Action, Hands, SenseHumanAttachingWhere
 
@@ -382,10 +382,13 @@ class Executor:
         re-targeted to the world's, with evidence saying so and keeping the new motion."""
         if node.motion is None or node.action is None:
             return node.motion, None
+        extra = node.model_extra or {}
         chosen = None
         if self.retarget is not None:
             chosen = robot_choice(self.slots, node.action, node.state, self.retarget.reaches)
-        planned = SlotMap(self.plan.facts, (node.model_extra or {}).get(SLOTS))
+        elif isinstance(extra.get(ROBOT_SLOT), dict):
+            self._take_plans_choice(extra[ROBOT_SLOT], node.state)  # none to ask: the plan's
+        planned = SlotMap(self.plan.facts, extra.get(SLOTS))
         if planned == self.slots:
             return node.motion, None
         assumed = planned.action(node.action), planned.state(node.state)
@@ -401,6 +404,14 @@ class Executor:
         if motion is None:
             return node.motion, None
         return motion, Evidence({**detail, "retargeted": motion.model_dump()})
+
+    def _take_plans_choice(self, choice: dict[str, str], state: list[str]) -> None:
+        """The robot's slot choice the plan made here, where the world lets it."""
+        onto, branch, real = choice.get("onto"), choice.get("branch"), choice.get("real")
+        if onto is None or branch is None or real is None:
+            return
+        if real in self.slots.free(onto, state) and real in self.slots.points.get(onto, []):
+            self.slots.follow(onto, branch, real, state)
 
     def _repair(self, node_id: str, node: PlanNode, outcome: Outcome) -> str | None:
         """Plans again from what was observed and switches to that plan; its root, or

@@ -344,3 +344,12 @@ def test_after_a_repair_the_world_keeps_its_slots_and_the_new_plan_is_re_targete
             leg = e.action.split(",")[1]
             end = world.endpoint(e.motion.arm, e.motion.path[-1])
             assert math.dist(end, world.site_target(Site("top", real[leg]))) <= POS_TOL
+
+
+def test_without_a_motion_planner_the_executor_takes_the_plans_slot_choices() -> None:
+    plan = plan_of(SCENARIOS / "default.toml")
+    executor = Executor(plan, ExpectedSource())
+    assert executor.run() == "goal"
+    # The plan's own choice (leg1 at the real c2) is followed: no motion needs re-targeting.
+    assert executor.slots.to_json() == {"top": {"c1": "c2", "c2": "c1"}}
+    assert all(e.evidence is None for e in executor.events if e.kind == "actuation")
