@@ -11,20 +11,31 @@ question is asked): it speaks the sentence and returns what to keep of that
 (the text, the engine), which the event carries as evidence. It runs
 synchronously (`run()`) or in its own thread (`start()`), and can be paused,
 single-stepped, resumed and aborted from any thread.
+
+Slots follow the world (planner.feasibility.slot_map): outcomes speak the plan's
+names, and the executor keeps a slot map from those names to the world's points.
+When the human attaches at another free slot than the branch names (an outcome
+with a `slot`), or the robot's arm cannot reach the one its attach names, the
+executor keeps to the branch and updates the map; a motion whose node assumes
+another map (its `slots`) goes to `retarget` (the motion planner), so the event
+carries the motion the robot really makes, and its evidence keeps it.
 """
 
 from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, Protocol
 
 from app.outcomes import Evidence, Outcome, OutcomeError, OutcomeSource, describe
 from app.repair import REPAIR, Repair, RepairFailed
 from app.surprises import Surprise, SurpriseError
+from planner.feasibility.scene import Site
+from planner.feasibility.slot_map import ROBOT_SLOT, SLOTS, SlotError, SlotMap, robot_choice
 from planner.plan import Motion, Plan, PlanNode
+from planner.vocabulary import Action, Hands, SenseHumanAttachingWhere
 
 Result = Literal["goal", "aborted", "interrupted", "dead-end"]
 RESULTS: tuple[Result, ...] = ("goal", "aborted", "interrupted", "dead-end")
@@ -38,7 +49,8 @@ class ExecutionEvent:
     `kind` is the node's kind (actuation, sensing, communication, goal);
     `outcome` is the branch taken (None after a deterministic node); `text`
     is what the robot said, or the outcome in words. `motion` (actuation
-    only) is the node's `{arm, joints, path}`; it is not stored, the plan has it.
+    only) is the node's `{arm, joints, path}`; it is not stored, the plan has it
+    (a re-targeted one is, in the evidence).
     An interrupted walk ends with an event of kind `interrupted` at the node it
     stood at, saying why (it is not a step of the plan).
     `evidence` is what decided the answer (a camera frame, the words heard),
@@ -64,6 +76,23 @@ Listener = Callable[[ExecutionEvent], None]
 Repairing = Callable[[PlanNode, Surprise], tuple[Repair, str]]
 # Speaks a communication node's sentence; what it returns is kept with the event.
 Narrator = Callable[[str, PlanNode], Evidence | None]
+
+
+class Retarget(Protocol):
+    """The motion planner behind re-targeting (app.retargeting.MotionRetargeter)."""
+
+    def motion(
+        self, action: Action, state: list[str], real: Action, real_state: list[str]
+    ) -> Motion | None:
+        """The motion of `real` in `real_state` (the branch's `action` in `state`, at the
+        world's slots); None when the branch's stored motion goes there already."""
+        ...
+
+    def reaches(self, arm: str, site: Site) -> bool:
+        """Can `arm` work at `site`?"""
+        ...
+
+    def close(self) -> None: ...
 
 
 def merged(first: Evidence | None, second: Evidence | None) -> Evidence | None:
@@ -94,8 +123,11 @@ class Executor:
         max_steps: int = 10_000,
         narrator: Narrator | None = None,
         repairing: Repairing | None = None,
+        retarget: Retarget | None = None,
     ) -> None:
         self.plan = plan
+        self.retarget = retarget
+        self.slots = SlotMap(plan.facts)
         self.narrator = narrator
         self.repairing = repairing
         self.nodes = plan.nodes
@@ -201,6 +233,8 @@ class Executor:
             raise
         finally:
             self.current = None
+            if self.retarget is not None:
+                self.retarget.close()  # its check cache, in the thread that used it
             self._done.set()
         return self.result
 
@@ -228,7 +262,10 @@ class Executor:
                 spoken = self.narrator(node_id, node)
             if not options:
                 text = node.say if node.kind == "communication" else None
-                self._emit(node_id, node, text=text, motion=node.motion, evidence=spoken)
+                motion, moved = self._motion(node)
+                self._emit(
+                    node_id, node, text=text, motion=motion, evidence=merged(spoken, moved)
+                )
                 next_id = children[0].node
             else:
                 try:
@@ -240,6 +277,7 @@ class Executor:
                     if repaired is not None:
                         node_id = repaired
                     continue  # on the new plan's root, or the same node asked again
+                slot = self._follow_slot(node_id, node, outcome)
                 text = node.say if node.kind == "communication" else outcome.text
                 self._emit(
                     node_id,
@@ -248,7 +286,7 @@ class Executor:
                     source=outcome.source,
                     confidence=outcome.confidence,
                     text=text or describe(node.action, outcome.label),
-                    evidence=merged(spoken, outcome.evidence),
+                    evidence=merged(merged(spoken, outcome.evidence), slot),
                 )
                 next_id = next(c.node for c in children if c.outcome == outcome.label)
             try:
@@ -303,6 +341,78 @@ class Executor:
                 )
             return outcome
 
+    def _follow_slot(self, node_id: str, node: PlanNode, outcome: Outcome) -> Evidence | None:
+        """Maps the branch's point onto the one the human used (both in the plan's names:
+        the map says where that is in the world), if they differ."""
+        if outcome.slot is None or outcome.slot == outcome.label:
+            return None
+        action = node.action
+        if not isinstance(action, SenseHumanAttachingWhere):
+            raise OutcomeError(f"{node.action} at {node_id} has no slot to observe")
+        if outcome.slot not in self.slot_choices(node):
+            raise OutcomeError(
+                f"{node.action} at {node_id}: {action.onto} has no free point {outcome.slot} "
+                f"(free: {', '.join(self.slot_choices(node))})"
+            )
+        real = self.slots.real(action.onto, outcome.slot)
+        try:
+            self.slots.follow(action.onto, outcome.label, real, node.state)
+        except SlotError as err:
+            raise OutcomeError(f"{node.action} at {node_id}: {err}") from None
+        slot = {"onto": action.onto, "branch": outcome.label, "used": outcome.slot, "real": real}
+        return Evidence({"slot": slot, "slots": self.slots.to_json()})
+
+    def slot_choices(self, node: PlanNode) -> list[str]:
+        """Where the human can attach at a humanAttachingWhere node: the free points, in
+        the plan's names."""
+        action = node.action
+        if not isinstance(action, SenseHumanAttachingWhere):
+            return []
+        taken = {point for onto, point in Hands.of(node.state).attached.values()
+                 if onto == action.onto}  # fmt: skip
+        return [p for p in self.slots.points.get(action.onto, []) if p not in taken]
+
+    def slot_label(self, node: PlanNode, options: Sequence[str], point: str) -> str:
+        """The outcome label for attaching at `point`: the point itself if the node has
+        that outcome, else its first (and the executor follows `point`)."""
+        return point if point in options else options[0]
+
+    def _motion(self, node: PlanNode) -> tuple[Motion | None, Evidence | None]:
+        """The node's stored motion where the world's slots are those it assumes; else
+        re-targeted to the world's, with evidence saying so and keeping the new motion."""
+        if node.motion is None or node.action is None:
+            return node.motion, None
+        extra = node.model_extra or {}
+        chosen = None
+        if self.retarget is not None:
+            chosen = robot_choice(self.slots, node.action, node.state, self.retarget.reaches)
+        elif isinstance(extra.get(ROBOT_SLOT), dict):
+            self._take_plans_choice(extra[ROBOT_SLOT], node.state)  # none to ask: the plan's
+        planned = SlotMap(self.plan.facts, extra.get(SLOTS))
+        if planned == self.slots:
+            return node.motion, None
+        assumed = planned.action(node.action), planned.state(node.state)
+        real = self.slots.action(node.action), self.slots.state(node.state)
+        if assumed[0] == real[0] and sorted(assumed[1]) == sorted(real[1]):
+            return node.motion, None
+        detail: dict[str, object] = {"slots": self.slots.to_json(), "real_action": str(real[0])}
+        if chosen:
+            detail["robot_slot"] = chosen
+        if self.retarget is None:
+            return node.motion, Evidence({**detail, "retargeted": "no motion planner"})
+        motion = self.retarget.motion(*assumed, *real)
+        if motion is None:
+            return node.motion, None
+        return motion, Evidence({**detail, "retargeted": motion.model_dump()})
+
+    def _take_plans_choice(self, choice: dict[str, str], state: list[str]) -> None:
+        """The robot's slot choice the plan made here, where the world lets it."""
+        onto, branch, real = choice.get("onto"), choice.get("branch"), choice.get("real")
+        if onto is None or branch is None or real is None:
+            return
+        if real in self.slots.free(onto, state) and real in self.slots.points.get(onto, []):
+            self.slots.follow(onto, branch, real, state)
+
     def _repair(self, node_id: str, node: PlanNode, outcome: Outcome) -> str | None:
         """Plans again from what was observed and switches to that plan; its root, or
         None (no repair possible: the node is asked again)."""
@@ -311,6 +421,8 @@ class Executor:
         try:
             if self.repairing is None:
                 raise RepairFailed("this execution cannot plan again")
+            # In the plan's names, as the surprise is: the new plan keeps them, and the
+            # slot map goes on saying where they are in the world.
             repair, digest = self.repairing(node, surprise)
         except (RepairFailed, SurpriseError) as err:
             self._emit(node_id, node, source=outcome.source, text=f"surprise ignored: {err}")

@@ -55,6 +55,9 @@ class Outcome:
     text: str = ""
     evidence: Evidence | None = None
     surprise: Surprise | None = None  # what happened fits no outcome: plan again
+    # sense(humanAttachingWhere): the free slot the human really used, when it is
+    # another than the branch `label` names (the executor maps one onto the other)
+    slot: str | None = None
 
 
 class OutcomeSource(Protocol):
@@ -141,7 +144,9 @@ class ScriptedSource:
     """Outcome labels read from a text file, one a line, `#` starting a comment.
 
     A line `!attach leg2 top c2` is a surprise (app.surprises): what the human
-    did instead of any outcome, which makes the executor repair the plan.
+    did instead of any outcome, which makes the executor repair the plan. At a
+    `sense(humanAttachingWhere(P,Q))` node a connection point of Q that is not the
+    branch's names the free slot the human really used (the executor follows it).
     Each nondeterministic node takes the next line. When the lines run out
     the source has no answer (None); a label that is not an outcome of the
     node raises `ScriptError` naming the file and the line.
@@ -188,6 +193,11 @@ class ScriptedSource:
         if line.label.startswith("!"):
             surprise = parse_surprise(line.label[1:])
             return Outcome("", self.name, 1.0, str(surprise), surprise=surprise)
+        if line.label not in options and isinstance(node.action, SenseHumanAttachingWhere):
+            # Another slot than the branch names: the executor checks that it is free.
+            return Outcome(
+                options[0], self.name, 1.0, describe(node.action, line.label), slot=line.label
+            )
         if line.label not in options:
             raise ScriptError(
                 f"{self.path}:{line.number}: '{line.label}' is not an outcome of "
@@ -215,8 +225,19 @@ class Offer:
     words: tuple[str, ...]
 
 
+class SlotChoices(Protocol):
+    """Where the human may attach at a humanAttachingWhere node (the executor knows)."""
+
+    def slot_choices(self, node: Node) -> list[str]: ...
+
+    def slot_label(self, node: Node, options: Sequence[str], real: str) -> str: ...
+
+
 class ClickSource:
     """Outcomes clicked in the dashboard.
+
+    With `slots` (the executor), a humanAttachingWhere node offers every free slot of
+    the world, not only the branch's: a click on another one is followed there.
 
     `choose` (the executor's thread) offers the node's options and waits up to
     `timeout` seconds for `click(label)` from another thread. `on_offer(offer)`
@@ -235,6 +256,7 @@ class ClickSource:
     ) -> None:
         self.timeout = timeout
         self.on_offer = on_offer
+        self.slots: SlotChoices | None = None
         self._cond = threading.Condition()
         self._offer: Offer | None = None
         self._clicked: str | None = None
@@ -292,7 +314,9 @@ class ClickSource:
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         action = node.action
-        self.offer(node_id, options, action)
+        slots = self.slots if isinstance(action, SenseHumanAttachingWhere) else None
+        choices = slots.slot_choices(node) if slots is not None else []
+        self.offer(node_id, choices or options, action)
         with self._cond:
             self._cond.wait_for(
                 lambda: self._clicked is not None or self._interrupted, self.timeout
@@ -306,6 +330,10 @@ class ClickSource:
             self._clicked = None
         if self.on_offer is not None:
             self.on_offer(None)
+        if slots is not None and choices:
+            # A slot of the world was clicked: the branch it falls in, followed there.
+            branch = slots.slot_label(node, options, label)
+            return Outcome(branch, self.name, 1.0, describe(action, label), slot=label)
         return Outcome(label, self.name, 1.0, describe(action, label))
 
 

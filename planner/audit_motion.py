@@ -3,7 +3,10 @@
 Without a robot model: the geometry itself (collisions, limits) is re-checked by the
 tests with the real Baxter. What a plan file alone can show is that each motion is
 7 joints wide, moves no joint far between waypoints, and starts where the same arm's
-previous motion on every branch into it ended (so execution never jumps).
+previous motion on every branch into it ended (so execution never jumps). A branch
+that comes into a node with another slot map than the node assumes (`slots`: it
+was planned for the way in where the robot took other free slots; see
+planner.feasibility.slot_map) is the one exception: the executor re-targets across it.
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from collections import deque
 from typing import Any
 
 from planner.feasibility.arms import JOINT_SUFFIXES
+from planner.feasibility.slot_map import ROBOT_SLOT, SLOTS
 
 JOINTS = len(JOINT_SUFFIXES)
 MAX_STEP = 0.06  # radians between waypoints: paths are densified to 0.05
@@ -44,11 +48,20 @@ def motion_problems(nodes: dict[str, Any], root: str) -> list[tuple[str, str]]:
                     out.append((node_id, f"{arm} motion starts away from where the arm is"))
                 after[arm] = path[-1]
         for child in node.get("children", []):
+            if _slots_change(node, nodes.get(child["node"], {})):
+                continue
             seen = arms_at.setdefault(child["node"], dict(after))
             for arm, q in after.items():
                 if arm in seen and _far(seen[arm], q):
                     out.append((child["node"], f"{arm} is in two places, by two branches"))
     return out
+
+
+def _slots_change(parent: dict[str, Any], child: dict[str, Any]) -> bool:
+    """Does the edge bring another slot map than the child assumes (not its own choice)?"""
+    if not isinstance(child, dict) or ROBOT_SLOT in child:
+        return False
+    return (parent.get(SLOTS) or {}) != (child.get(SLOTS) or {})
 
 
 def _shape(motion: Any) -> tuple[str, str, list[Config]]:

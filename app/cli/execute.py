@@ -23,7 +23,9 @@ from app.outcomes import (
     ScriptedSource,
 )
 from app.repair import REPAIR, Repairer
+from app.retargeting import retargeter_for
 from app.store import SessionStore
+from planner.feasibility.slot_map import connection_points
 from planner.plan import Plan, PlanFormatError
 from planner.planning import plan_scenario
 from planner.resources import find_scenario
@@ -111,7 +113,9 @@ def make_source(spec: str, seed: int | None, plan: Plan) -> OutcomeSource:
         primary = RandomSource(seed)
     elif spec.startswith("scripted:") and spec != "scripted:":
         scripted = ScriptedSource(spec[len("scripted:") :])
-        scripted.check_labels(plan.outcome_labels())
+        # A connection point names the slot the human used at a humanAttachingWhere.
+        points = {p for ps in connection_points(plan.facts).values() for p in ps}
+        scripted.check_labels(plan.outcome_labels() | points)
         primary = scripted
     else:
         raise BadInput(f"--responses {spec}: expected click, random or scripted:FILE")
@@ -214,6 +218,8 @@ def run(args: argparse.Namespace) -> int:
             args.step_delay,
             narrator=narrator,
             repairing=repairing,
+            # The slot the human used moves later motions: the motion planner re-targets them.
+            retarget=retargeter_for(scenario, plan),
         )
 
         def stop(signum: int, frame: FrameType | None) -> None:

@@ -30,6 +30,7 @@ from app.dashboard.stage import (
 from app.execution import ExecutionEvent, Executor, Listener, Narrator
 from app.outcomes import ClickSource, FallbackSource, Offer, OutcomeSource
 from app.repair import REPAIR, Repairer
+from app.retargeting import retargeter_for
 from app.session_db import StoreError
 from app.store import SessionStore
 from planner.plan import Motion, Plan
@@ -145,7 +146,9 @@ class ExecutionPanel:
             step_delay=float(self.speed.value),
             narrator=narrator,
             repairing=Repairer(scenario, self.store.add_plan).repair if scenario else None,
+            retarget=retargeter_for(scenario, plan),
         )
+        clicks.slots = self.executor  # a humanAttachingWhere offers every free slot
         self.start_button.disabled = True
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = False

@@ -5,6 +5,10 @@ processes) only on the first cache miss, so a plan whose checks are all cached
 loads neither the robot nor OMPL's planners. `prefetch_reach` and `prefetch_moves`
 ask for many answers at once, so the pool works on them side by side; answers
 go into the cache in the order they are asked for, not the order they finish.
+
+A motion goes between places: a part id (its work point, as reachability checks
+it) or a `Site` (a connection point where the state puts it: scene.py). Sites are
+reached from this process's world; part-to-part and site motions use the pool.
 """
 
 from __future__ import annotations
@@ -17,10 +21,12 @@ from planner.feasibility.arms import ARMS, HOME
 from planner.feasibility.cache import CheckCache, geometry_key
 from planner.feasibility.check_pool import CheckPool
 from planner.feasibility.reach import PlannerName, ReachResult, World
+from planner.feasibility.scene import Site
 from planner.scenario_model import Scenario
 
 Config = list[float]
-Move = tuple[str, str, str]  # arm, from part, to part (neither home)
+Place = str | Site  # a part's work point, or a connection point's site
+Move = tuple[str, Place, Place]  # arm, from, to (neither home)
 
 
 class BenchChecks:
@@ -47,6 +53,7 @@ class BenchChecks:
         self._workers = workers
         self._pool: CheckPool | None = None
         self._reach: dict[tuple[str, str], ReachResult] = {}
+        self._site_reach: dict[tuple[str, Site], ReachResult] = {}
         self._reach_pending: dict[tuple[str, str], Future[ReachResult]] = {}
         self._move_pending: dict[Move, Future[list[Config] | None]] = {}
 
@@ -118,16 +125,30 @@ class BenchChecks:
         self.prefetch_reach(pairs)
         return {pair: self.reach(*pair) for pair in pairs}
 
-    def at(self, arm: str, part: str | None) -> Config:
-        """Where `arm` stands when working on `part` (None: home)."""
-        if part is None:
-            return list(HOME[arm])
-        return self._reach_path(arm, part)[-1]
+    def reach_site(self, arm: str, site: Site) -> ReachResult:
+        """Can `arm` reach `site` from home, top-down as it reaches a work point?"""
+        if (arm, site) in self._site_reach:
+            return self._site_reach[(arm, site)]
+        key = f"{self.key}/reach/{arm}/{site}"
+        stored = self.cache.get(key)
+        if stored is not None:
+            result = ReachResult(**stored)
+        else:
+            result = self.world.check_reach(arm, site.part, site.point)
+            self.cache.put(key, result.__dict__)
+        self._site_reach[(arm, site)] = result
+        return result
 
-    def move(self, arm: str, start: str | None, goal: str | None) -> list[Config]:
-        """A collision-free path of `arm` from its work point on `start` to the one on
-        `goal` (None: home). Paths to and from home are the reach paths; between two
-        parts the motion planner is asked, and if it finds nothing the arm goes by home."""
+    def at(self, arm: str, place: Place | None) -> Config:
+        """Where `arm` stands when working at `place` (None: home)."""
+        if place is None:
+            return list(HOME[arm])
+        return self._reach_path(arm, place)[-1]
+
+    def move(self, arm: str, start: Place | None, goal: Place | None) -> list[Config]:
+        """A collision-free path of `arm` from `start` to `goal` (None: home). Paths to
+        and from home are the reach paths; between two places the motion planner is
+        asked, and if it finds nothing the arm goes by home."""
         if start == goal:
             return [self.at(arm, start)]
         if start is None:
@@ -144,7 +165,7 @@ class BenchChecks:
             if stored is not None:
                 return list(stored)
             direct = self.world.move(
-                arm, self.at(arm, start), self.at(arm, goal), frozenset({start, goal})
+                arm, self.at(arm, start), self.at(arm, goal), _touched(start, goal)
             )
         path = direct or self._reach_path(arm, start)[::-1] + self._reach_path(arm, goal)[1:]
         self.cache.put(key, path)
@@ -161,11 +182,16 @@ class BenchChecks:
             if self.pool is None:
                 return
             self._move_pending[(arm, start, goal)] = self.pool.move(
-                arm, self.at(arm, start), self.at(arm, goal), frozenset({start, goal})
+                arm, self.at(arm, start), self.at(arm, goal), _touched(start, goal)
             )
 
-    def _reach_path(self, arm: str, part: str) -> list[Config]:
-        path = self.reach(arm, part).path
-        if path is None:
-            raise ValueError(f"{arm} cannot reach {part}")
-        return path
+    def _reach_path(self, arm: str, place: Place) -> list[Config]:
+        result = self.reach(arm, place) if isinstance(place, str) else self.reach_site(arm, place)
+        if result.path is None:
+            raise ValueError(f"{arm} cannot reach {place}")
+        return result.path
+
+
+def _touched(*places: Place) -> frozenset[str]:
+    """The parts the gripper may touch on a move between `places`."""
+    return frozenset(p if isinstance(p, str) else p.part for p in places)

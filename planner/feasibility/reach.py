@@ -21,7 +21,7 @@ from planner.feasibility._bullet import pb
 from planner.feasibility.arms import ARMS, HOME
 from planner.feasibility.path_planner import plan_path, seed_ompl
 from planner.feasibility.robot import BaxterBody, load_robot
-from planner.feasibility.scene import PartBox, Scene, build_scene
+from planner.feasibility.scene import PartBox, Scene, Site, build_scene
 from planner.scenario_model import Scenario
 
 Reason = Literal["ok", "no IK", "IK in collision", "no path"]
@@ -130,16 +130,19 @@ class World:
 
     # -- the query -----------------------------------------------------------
 
-    def check_reach(self, arm: str, part: str) -> ReachResult:
+    def check_reach(self, arm: str, part: str, point: str | None = None) -> ReachResult:
+        """From home to the part's work point, or with `point` to that connection
+        point's site on the part's own footprint (`Site`)."""
         start = time.perf_counter()
         self.robot.go_home()
         box = self.scene.parts[part]
-        rng = np.random.default_rng([self.seed, zlib.crc32(f"{arm}/{part}".encode())])
+        name = f"{arm}/{part}" if point is None else f"{arm}/{Site(part, point)}"
+        rng = np.random.default_rng([self.seed, zlib.crc32(name.encode())])
         search = _IkSearch()
-        seed_ompl(zlib.crc32(f"{self.seed}/{arm}/{part}".encode()))
+        seed_ompl(zlib.crc32(f"{self.seed}/{name}".encode()))
         # Goals come one at a time: the first one usually has a path, and IK restarts
         # cost more than a path query.
-        for goal in self._ik_goals(arm, box, rng, search):
+        for goal in self._ik_goals(arm, box, rng, search, point):
             path = plan_path(
                 lambda q: self.is_valid(arm, q, part),
                 HOME[arm],
@@ -176,14 +179,36 @@ class World:
         self.robot.go_home()
         return path
 
+    # -- where the gripper is -------------------------------------------------
+
+    def endpoint(self, arm: str, q: list[float]) -> tuple[float, float, float]:
+        """The gripper endpoint of `arm` at `q`, by forward kinematics."""
+        self.robot.set_arm(arm, q)
+        state = pb.getLinkState(
+            self.robot.body,
+            self.robot.end_effector[arm],
+            computeForwardKinematics=True,
+            physicsClientId=self.client,
+        )
+        self.robot.go_home()
+        return (float(state[4][0]), float(state[4][1]), float(state[4][2]))
+
+    def site_target(self, site: Site) -> tuple[float, float, float]:
+        """Where the gripper endpoint goes to work at `site` (`grasp_poses`)."""
+        x, y, z = self.grasp_poses(self.scene.parts[site.part], point=site.point)[0][0]
+        return (x, y, z)
+
     # -- inverse kinematics --------------------------------------------------
 
-    def grasp_poses(self, box: PartBox, arm: str = "left") -> list[tuple[list[float], list[float]]]:
+    def grasp_poses(
+        self, box: PartBox, arm: str = "left", point: str | None = None
+    ) -> list[tuple[list[float], list[float]]]:
         """Top-down grasps over the part's work point (its centre, or the top's connection
-        point nearest `arm`), fingers closing across its short side (they close along
-        the gripper's y axis); the two yaws are the symmetric grasps."""
+        point nearest `arm`) or over the site of its connection point `point`, fingers
+        closing across its short side (they close along the gripper's y axis); the two
+        yaws are the symmetric grasps."""
         yaw = box.yaw + (0.0 if box.size[0] >= box.size[1] else math.pi / 2)
-        x, y = box.work_point(self._shoulder(arm)[:2])
+        x, y = box.work_point(self._shoulder(arm)[:2]) if point is None else box.sites()[point]
         pos = [x, y, box.top_z + GRASP_CLEARANCE]
         return [
             (pos, list(pb.getQuaternionFromEuler([math.pi, 0.0, yaw + k * math.pi])))
@@ -191,12 +216,17 @@ class World:
         ]
 
     def _ik_goals(
-        self, arm: str, box: PartBox, rng: np.random.Generator, search: _IkSearch
+        self,
+        arm: str,
+        box: PartBox,
+        rng: np.random.Generator,
+        search: _IkSearch,
+        point: str | None = None,
     ) -> Iterator[list[float]]:
         """Distinct collision-free IK solutions, up to GOALS_WANTED; `search` records
         whether any accurate solution existed (to tell "no IK" from "IK in collision")."""
         shoulder = self._shoulder(arm)
-        poses = self.grasp_poses(box, arm)
+        poses = self.grasp_poses(box, arm, point)
         if min(math.dist(shoulder, p) for p, _ in poses) > self._reach_radius[arm]:
             return  # farther than the arm stretched straight: skip IK
         lo, hi = np.array(self.robot.lower[arm]), np.array(self.robot.upper[arm])

@@ -3,11 +3,20 @@
 Coordinates: x along the bench away from the robot (the regions' extents), y across
 it, z up with 0 at the robot's base frame; the bench top is at BENCH_TOP_Z. Missing
 geometry gets the defaults of the field notes, so every valid scenario has a scene.
+
+Slots (connection points) follow the assembly: a part attached to nothing has its
+points on its own footprint (`PartBox.sites`); a part attached at Q's point C stands
+at the site of (Q, C), and all its own points are there too. So a leg attached to
+the top at c2 stands at the top's site c2, and a foot attached to that leg goes to
+the same place (`site_of`). An arm works at a site from above: top-down, the
+gripper endpoint GRASP_CLEARANCE (planner.feasibility.reach) over the top face of
+the part whose footprint the site lies on.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from planner.scenario_model import Part, Scenario
@@ -72,6 +81,30 @@ class PartBox:
         if self.movable or not sites:
             return (self.x, self.y)
         return min(sites.values(), key=lambda xy: math.dist(xy, near))
+
+
+@dataclass(frozen=True, order=True)
+class Site:
+    """Connection point `point` on the footprint of `part`, a part attached to nothing."""
+
+    part: str
+    point: str
+
+    def __str__(self) -> str:
+        return f"{self.part}@{self.point}"  # "@" is in no part id: cache keys stay apart
+
+
+def site_of(attached: Mapping[str, tuple[str, str]], part: str, point: str) -> Site:
+    """Where connection point `point` of `part` lies when `attached` (part -> (onto,
+    point), as `Hands.attached` reads it from a state) places the parts: down the
+    attachment chain to the part attached to nothing."""
+    seen = {part}
+    while part in attached:
+        part, point = attached[part]
+        if part in seen:
+            raise ValueError(f"attachment cycle through {part}")
+        seen.add(part)
+    return Site(part, point)
 
 
 @dataclass
