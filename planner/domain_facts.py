@@ -15,6 +15,7 @@ _FACT_ARITY: dict[str, int] = {
     "part": 1, "movable": 1, "class": 2, "attachable": 2, "connection": 2,
     "dangerous": 1, "region": 1, "humanReach": 1, "loc": 2, "manipulator": 1,
     "reachable": 2, "goal": 2, "safety": 1, "verbosity": 1, "initiative": 1,
+    "plannedConfiguration": 0, "goalOption": 2, "shapeOption": 2, "lengthOption": 2,
 }  # fmt: skip
 
 
@@ -37,6 +38,12 @@ class Facts:
     safety: str = "normal"
     verbosity: str = "normal"
     initiative: int = DEFAULT_INITIATIVE  # how often the human may pick a part up unasked
+    # A planned configuration (planner.domain_config): the pairs a table may
+    # use, and what each part's shape and length may be (one option: known).
+    planned: bool = False
+    goal_options: list[tuple[str, str]] = field(default_factory=list)
+    shapes: dict[str, list[str]] = field(default_factory=dict)
+    lengths: dict[str, list[str]] = field(default_factory=dict)
 
 
 def parse_facts(items: object) -> tuple[Facts, list[str]]:
@@ -93,6 +100,15 @@ def _add_fact(f: Facts, name: str, a: tuple[str, ...]) -> str | None:
     elif name == "goal":
         if (a[0], a[1]) not in f.goals:
             f.goals.append((a[0], a[1]))
+    elif name == "plannedConfiguration":
+        f.planned = True
+    elif name == "goalOption":
+        if (a[0], a[1]) not in f.goal_options:
+            f.goal_options.append((a[0], a[1]))
+    elif name in ("shapeOption", "lengthOption"):
+        options = (f.shapes if name == "shapeOption" else f.lengths).setdefault(a[0], [])
+        if a[1] not in options:
+            options.append(a[1])
     elif name == "safety":
         f.safety = a[0]
     elif name == "verbosity":
