@@ -50,12 +50,11 @@ class PlannedTable:
         return {v: s | {(fluent, part, v)} for v in self._options(query, part)}
 
     # -- joining the table
-    def may_join(self, p: str, q: str) -> bool:
-        return (p, q) in self.f.goal_options
-
     def fit_failures(self, s: State, p: str, q: str) -> list[str]:
         """Why P may not join Q yet: a foot must be seen to fit its leg's hole; a
         leg on the top must be seen to have the length of the legs already there."""
+        if (p, q) not in self.f.goal_options and not self._fit_by_shape(p, q):
+            return [f"goalOption({p},{q})"]
         if q == self.top:
             length = self.known(s, "lengthOf", p)
             if length is None:
@@ -66,6 +65,10 @@ class PlannedTable:
         if shape is None or hole is None:
             return [f"shapes of {p} and {q} known"]
         return [] if shape == hole else [f"{p} ({shape}) fits the hole of {q} ({hole})"]
+
+    def _fit_by_shape(self, p: str, q: str) -> bool:
+        # A foot and a leg whose known shapes differ are reported as a misfit below.
+        return p in self.f.shapes and q in self.f.shapes and q != self.top
 
     def look_first(self, s: State, part: str) -> list[str]:
         """A part is grasped only once what it is is known (it may fit nowhere)."""

@@ -164,12 +164,13 @@ class Domain:
         self.f = facts
         self.table = PlannedTable(facts) if facts.planned else None
 
-    def goal_pair(self, p: str, q: str) -> bool:
-        """Whether the final configuration may attach P to Q: a goal fact, or
-        (planned) a pair some stable table may contain."""
+    def join_failures(self, s: State, p: str, q: str) -> list[str]:
+        """Why the final configuration may not attach P to Q in `s`: not a goal
+        fact, or (planned) not seen to fit (which also rules out every pair no
+        stable table contains)."""
         if self.table is not None:
-            return self.table.may_join(p, q)
-        return (p, q) in self.f.goals
+            return self.table.fit_failures(s, p, q)
+        return [] if (p, q) in self.f.goals else [f"goal({p},{q})"]
 
     def goal_onto(self, p: str) -> list[str]:
         pairs = self.f.goal_options if self.table is not None else self.f.goals
@@ -270,7 +271,6 @@ class Domain:
             *(("declined", p, q) for q in self.goal_onto(p)),
         }
 
-
     def lapse(self, s: State) -> State:
         # The human may have picked up any candidate meanwhile.
         return s - {HUMAN_FREE} if self.candidates(s) else s
@@ -300,9 +300,7 @@ class Domain:
                 )
         if n in ("confirmAttach", "askHelp", "offerHelp", "requestToAttach"):
             # The shared tail of every "the human attaches P to Q" action.
-            need(self.goal_pair(p, q), f"goal({p},{q})")
-            if self.table is not None:
-                fails.extend(self.table.fit_failures(s, p, q))
+            fails.extend(self.join_failures(s, p, q))
             need(self.free_point(s, p, q) is not None, f"freePoint({p},{q},_)")
             need(self.human_workable(s, q), f"humanWorkable({q})")
         if n in ("askHelp", "requestToAttach"):
@@ -382,10 +380,7 @@ class Domain:
             fails.append(f"{p} != {q}")
         if self.is_attached(s, p):
             fails.append(f"not attached({p},_,_)")
-        if not self.goal_pair(p, q):
-            fails.append(f"goal({p},{q})")
-        elif self.table is not None:
-            fails.extend(self.table.fit_failures(s, p, q))
+        fails.extend(self.join_failures(s, p, q))
         if self.free_point(s, p, q) != c:
             fails.append(f"freePoint({p},{q},{c})")
         if any(t[2] == q for t in self.tasks(s)):

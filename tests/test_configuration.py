@@ -1,0 +1,277 @@
+"""A final configuration planned per branch, from shapes and lengths sensed while
+planning (docs/scenario.md, "Unknown shapes and a planned configuration").
+
+Small declared benches, so the real planner and the real audit run in
+fractions of a second; the paper's real-world task is tests/test_real_world.py.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import pytest
+
+from planner.audit import audit
+from planner.encoding import PLANNED
+from planner.plan import Plan
+from planner.planning import plan_scenario
+from planner.scenario import ScenarioError, parse_scenario
+from planner.vocabulary import (
+    Attached,
+    SenseHumanHolding,
+    SenseLengthOf,
+    SenseShapeOf,
+    parse_fluent,
+)
+
+_BENCH = """\
+name = "planned"
+
+[[regions]]
+id = "robotOnly"
+human_reach = false
+
+[[regions]]
+id = "shared"
+human_reach = true
+
+[[regions]]
+id = "humanOnly"
+human_reach = true
+
+[feasibility.reachable]
+left = ["robotOnly", "shared"]
+right = ["robotOnly", "shared"]
+
+[[parts]]
+id = "top"
+kind = "top"
+region = "shared"
+connections = ["c1", "c2"]
+"""
+
+
+def _part(pid: str, kind: str, region: str, **fields: str | list[str]) -> str:
+    lines = [f'id = "{pid}"', f'kind = "{kind}"', f'region = "{region}"']
+    for key, value in fields.items():
+        words = [value] if isinstance(value, str) else value
+        quoted = ", ".join(f'"{v}"' for v in words)
+        shown = quoted if isinstance(value, str) else f"[{quoted}]"
+        lines.append(f"{key} = {shown}")
+    return "\n[[parts]]\n" + "\n".join(lines) + "\n"
+
+
+# Two slots; leg1 has a square hole, leg2 a circle one. foot2 is circle or
+# square: if circle it goes on leg2, if square leg2 needs foot3 from the far side.
+SHAPES = (
+    _BENCH
+    + _part("leg1", "leg", "robotOnly", length="tall", shape="square")
+    + _part("leg2", "leg", "shared", length="tall", shape="circle")
+    + _part("leg3", "leg", "robotOnly", length="short", shape="square")
+    + _part("foot1", "foot", "shared", shape="square")
+    + _part("foot2", "foot", "robotOnly", shape=["circle", "square"])
+    + _part("foot3", "foot", "humanOnly", shape="circle")
+    + '\n[goal]\ntable = "stable"\nconfiguration = "planned"\n'
+)
+
+# leg2 is tall or short: if short, leg3 from the far side takes its place.
+LENGTHS = (
+    _BENCH
+    + _part("leg1", "leg", "robotOnly", length="tall", shape="square")
+    + _part("leg2", "leg", "shared", length=["tall", "short"], shape="square")
+    + _part("leg3", "leg", "humanOnly", length="tall", shape="square")
+    + _part("foot1", "foot", "shared", shape="square")
+    + _part("foot2", "foot", "robotOnly", shape="square")
+    + '\n[goal]\ntable = "stable"\nconfiguration = "planned"\n'
+)
+
+
+def _plan(text: str) -> Plan:
+    return plan_scenario(parse_scenario(text, "planned.toml"), workers=1).plan
+
+
+def _goal_pairs(plan: Plan, start: str, label: str) -> set[tuple[str, str]]:
+    """The attachments at the goal reached from `start` through outcome `label`,
+    then the outcomes the planner hoped for, with the human's hands staying free."""
+    node_id = plan.nodes[start].child(label)
+    assert node_id is not None
+    while plan.nodes[node_id].kind != "goal":
+        node = plan.nodes[node_id]
+        # The human takes no initiative, so the robot's own choices show.
+        wanted = "no" if isinstance(node.action, SenseHumanHolding) else node.expected
+        hoped = node.child(wanted) if wanted is not None else None
+        node_id = hoped or node.children[0].node
+    pairs = set()
+    for text in plan.nodes[node_id].state:
+        fluent = parse_fluent(text)
+        if isinstance(fluent, Attached):
+            pairs.add((fluent.part, fluent.onto))
+    return pairs
+
+
+def _sensing(plan: Plan, kind: type[SenseShapeOf | SenseLengthOf]) -> list[str]:
+    return [n for n, node in plan.nodes.items() if isinstance(node.action, kind)]
+
+
+@pytest.fixture(scope="module")
+def shapes_plan() -> Plan:
+    return _plan(SHAPES)
+
+
+def test_the_sensed_shape_changes_which_foot_goes_on_which_leg(shapes_plan: Plan) -> None:
+    plan = shapes_plan
+    sensed = _sensing(plan, SenseShapeOf)
+    assert sensed, "the plan never looks at foot2"
+    for node_id in sensed:
+        # One outcome per option of the scenario, nothing else.
+        assert sorted(plan.nodes[node_id].outcomes) == ["circle", "square"]
+    node_id = sensed[0]
+    circle = _goal_pairs(plan, node_id, "circle")
+    square = _goal_pairs(plan, node_id, "square")
+    assert ("foot2", "leg2") in circle and ("foot3", "leg2") not in circle
+    assert ("foot3", "leg2") in square and ("foot2", "leg2") not in square
+    for pairs in (circle, square):
+        assert {p for p, q in pairs if q == "top"} == {"leg1", "leg2"}
+
+
+def test_the_planned_plan_passes_the_audit_and_counts_its_sensing(shapes_plan: Plan) -> None:
+    doc = shapes_plan.to_json()
+    assert PLANNED in doc["facts"]
+    assert not any(f.startswith("goal(") for f in doc["facts"])
+    assert audit(doc) == []
+    assert shapes_plan.statistics["S"] >= 1
+
+
+def _first(doc: dict[str, Any], action: str) -> str:
+    return next(n for n, node in doc["nodes"].items() if node["action"] == action)
+
+
+@pytest.mark.parametrize(("foot", "seen"), [("foot1", None), ("foot2", "shapeIs(foot2,square)")])
+def test_the_audit_flags_a_foot_on_a_leg_of_another_shape(
+    shapes_plan: Plan, foot: str, seen: str | None
+) -> None:
+    doc = copy.deepcopy(shapes_plan.to_json())
+    # Where the robot attaches a square foot (known, or seen to be) to leg1,
+    # send it to the circle leg2 instead.
+    node_id = next(
+        n
+        for n, node in doc["nodes"].items()
+        if (node["action"] or "").startswith("attach(")
+        and node["action"].endswith(",leg1,foot)")
+        and any(s.startswith("holding(") and s.endswith(f",{foot})") for s in node["state"])
+        and (seen is None or seen in node["state"])
+    )
+    doc["nodes"][node_id]["action"] = doc["nodes"][node_id]["action"].replace("leg1", "leg2")
+    messages = [v.message for v in audit(doc) if v.node == node_id]
+    assert f"precondition failed: {foot} (square) fits the hole of leg2 (circle)" in messages
+
+
+def test_the_audit_flags_an_attachment_before_the_shape_is_seen(shapes_plan: Plan) -> None:
+    doc = copy.deepcopy(shapes_plan.to_json())
+    # Forget, in the state after sensing, what the camera saw of foot2.
+    node_id = next(
+        n
+        for n, node in doc["nodes"].items()
+        if "shapeIs(foot2,circle)" in node["state"]
+        and (node["action"] or "").startswith("attach(")
+        and any(s.startswith("holding(") and s.endswith(",foot2)") for s in node["state"])
+    )
+    doc["nodes"][node_id]["state"].remove("shapeIs(foot2,circle)")
+    messages = [v.message for v in audit(doc) if v.node == node_id]
+    assert "precondition failed: shapes of foot2 and leg2 known" in messages
+
+
+def test_the_audit_flags_a_goal_that_is_not_a_stable_table(shapes_plan: Plan) -> None:
+    doc = copy.deepcopy(shapes_plan.to_json())
+    goal = next(n for n, node in doc["nodes"].items() if node["kind"] == "goal")
+    state = doc["nodes"][goal]["state"]
+    foot_on_leg1 = next(s for s in state if s.startswith("attached(") and ",leg1," in s)
+    state.remove(foot_on_leg1)
+    messages = [v.message for v in audit(doc) if v.node == goal]
+    assert "goal not reached: leg1 has no foot" in messages
+
+
+def test_an_unknown_length_is_sensed_and_changes_which_legs_go_on_the_top() -> None:
+    plan = _plan(LENGTHS)
+    assert audit(plan.to_json()) == []
+    sensed = _sensing(plan, SenseLengthOf)
+    assert sensed
+    node_id = sensed[0]
+    assert sorted(plan.nodes[node_id].outcomes) == ["short", "tall"]
+    tall = {p for p, q in _goal_pairs(plan, node_id, "tall") if q == "top"}
+    short = {p for p, q in _goal_pairs(plan, node_id, "short") if q == "top"}
+    assert "leg2" in tall
+    assert short == {"leg1", "leg3"}
+
+
+def test_explicit_attachments_still_plan_as_a_fixed_stable_table() -> None:
+    # A fixed table uses every foot: the spare circle foot3 goes.
+    spare = _part("foot3", "foot", "humanOnly", shape="circle")
+    known = (
+        SHAPES.replace('shape = ["circle", "square"]', 'shape = "circle"')
+        .replace('configuration = "planned"\n', "")
+        .replace(spare, "")
+    )
+    fixed = parse_scenario(known, "fixed.toml")
+    pairs = fixed.goal_pairs()
+    listed = ", ".join(f'["{p}", "{q}"]' for p, q in pairs)
+    explicit = known.replace('table = "stable"', f"attachments = [{listed}]")
+    by_table = plan_scenario(fixed, workers=1).plan.to_json()
+    by_list = plan_scenario(parse_scenario(explicit, "fixed.toml"), workers=1).plan.to_json()
+    assert PLANNED not in by_table["facts"]
+    assert by_table["nodes"] == by_list["nodes"]
+    assert by_table["facts"] == by_list["facts"]
+
+
+def _error(text: str) -> str:
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, "bad.toml")
+    return str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("before", "after", "message"),
+    [
+        (
+            'shape = ["circle", "square"]',
+            'shape = ["circle"]',
+            "bad.toml: parts[5].shape: an unknown shape lists at least two options "
+            "(a known one is a plain word)",
+        ),
+        (
+            'shape = ["circle", "square"]',
+            'shape = ["circle", "circle"]',
+            "bad.toml: parts[5].shape[1]: duplicate option 'circle' (already at parts[5].shape[0])",
+        ),
+        (
+            'configuration = "planned"\n',
+            "",
+            "bad.toml: parts[5].shape: an unknown shape (circle or square) needs the planner to "
+            'choose the table: write configuration = "planned" under [goal]',
+        ),
+        (
+            'configuration = "planned"\n',
+            'configuration = "always"\n',
+            "bad.toml: goal.configuration: expected 'fixed' or 'planned', got string 'always'",
+        ),
+        (
+            'region = "humanOnly"\nshape = "circle"',
+            'region = "humanOnly"\nshape = "triangle"',
+            "bad.toml: goal.configuration: no stable table when foot2 is square",
+        ),
+    ],
+)
+def test_bad_options_are_one_line_errors(before: str, after: str, message: str) -> None:
+    assert before in SHAPES
+    assert _error(SHAPES.replace(before, after, 1)) == message
+
+
+def test_a_planned_configuration_needs_a_table_goal() -> None:
+    text = SHAPES.replace('table = "stable"', 'attachments = [["leg1", "top"]]').replace(
+        'shape = ["circle", "square"]', 'shape = "circle"'
+    )
+    assert _error(text) == (
+        'bad.toml: goal.configuration: only with table = "stable": explicit attachments fix '
+        "the configuration"
+    )
