@@ -12,6 +12,7 @@ from typing import Any
 
 import pytest
 
+from planner import diagnosis
 from planner.audit import audit
 from planner.encoding import PLANNED
 from planner.plan import Plan
@@ -222,6 +223,11 @@ def test_explicit_attachments_still_plan_as_a_fixed_stable_table() -> None:
     assert PLANNED not in by_table["facts"]
     assert by_table["nodes"] == by_list["nodes"]
     assert by_table["facts"] == by_list["facts"]
+
+
+def test_diagnosis_refuses_no_planned_table() -> None:
+    scenario = parse_scenario(SHAPES, "planned.toml")
+    assert diagnosis.causes(scenario, scenario.reachable_pairs()) == []
 
 
 def _error(text: str) -> str:
