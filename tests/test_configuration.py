@@ -8,6 +8,9 @@ fractions of a second; the paper's real-world task is tests/test_real_world.py.
 from __future__ import annotations
 
 import copy
+import json
+import os
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -18,6 +21,7 @@ from planner.encoding import PLANNED
 from planner.plan import Plan
 from planner.planning import plan_scenario
 from planner.scenario import ScenarioError, parse_scenario
+from tests.plan_fixtures import tandem
 from planner.vocabulary import (
     Attached,
     SenseHumanHolding,
@@ -281,3 +285,61 @@ def test_a_planned_configuration_needs_a_table_goal() -> None:
         'bad.toml: goal.configuration: only with table = "stable": explicit attachments fix '
         "the configuration"
     )
+
+
+def _script(plan: Plan, shape: str) -> list[str]:
+    """The labels of one branch: the human's hands stay free, foot2 is `shape`,
+    and the hoped-for outcome elsewhere."""
+    labels = []
+    node_id = plan.root
+    while plan.nodes[node_id].kind != "goal":
+        node = plan.nodes[node_id]
+        wanted = node.expected
+        if isinstance(node.action, SenseHumanHolding):
+            wanted = "no"
+        elif isinstance(node.action, SenseShapeOf):
+            wanted = shape
+        if node.outcomes:
+            labels.append(wanted or node.outcomes[0])
+        node_id = node.child(wanted if node.outcomes else None) or node.children[0].node
+    return labels
+
+
+@pytest.mark.parametrize(("shape", "onto_leg2"), [("circle", "foot2"), ("square", "foot3")])
+def test_tandem_execute_answers_the_shape_from_a_script(
+    tmp_path: Path, shapes_plan: Plan, shape: str, onto_leg2: str
+) -> None:
+    env = {**os.environ, "TANDEM_DATA_DIR": str(tmp_path / "data")}
+    plan_file = tmp_path / "plan.json"
+    plan_file.write_text(json.dumps(shapes_plan.to_json()))
+    script = tmp_path / "answers.txt"
+    script.write_text("\n".join(_script(shapes_plan, shape)) + "\n")
+    done = tandem("execute", str(plan_file), "--responses", f"scripted:{script}", env=env)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1].split()[2] == "goal"
+    export = tmp_path / "session.json"
+    sid = done.stdout.splitlines()[0].split()[1]
+    assert tandem("sessions", "export", sid, "-o", str(export), env=env).returncode == 0
+    events = json.loads(export.read_text())["events"]
+    sensed = [e for e in events if e["action"] == "sense(shapeOf(foot2))"]
+    assert [e["outcome"] for e in sensed] == [shape]
+    last = shapes_plan.nodes[events[-1]["node"]].state
+    assert f"attached({onto_leg2},leg2,foot)" in last
+
+
+def test_tandem_check_passes_a_planned_plan_and_fails_a_broken_one(
+    tmp_path: Path, shapes_plan: Plan
+) -> None:
+    doc = shapes_plan.to_json()
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(doc))
+    assert tandem("check", str(good)).returncode == 0
+    broken = copy.deepcopy(doc)
+    node_id = _first(broken, "sense(shapeOf(foot2))")
+    # One outcome per option: dropping one leaves the plan incomplete.
+    broken["nodes"][node_id]["children"] = broken["nodes"][node_id]["children"][:1]
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(broken))
+    done = tandem("check", str(bad))
+    assert done.returncode != 0
+    assert "outcome not covered: square" in done.stdout + done.stderr
