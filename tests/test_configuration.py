@@ -21,7 +21,6 @@ from planner.encoding import PLANNED
 from planner.plan import Plan
 from planner.planning import plan_scenario
 from planner.scenario import ScenarioError, parse_scenario
-from tests.plan_fixtures import tandem
 from planner.vocabulary import (
     Attached,
     SenseHumanHolding,
@@ -29,6 +28,7 @@ from planner.vocabulary import (
     SenseShapeOf,
     parse_fluent,
 )
+from tests.plan_fixtures import tandem
 
 _BENCH = """\
 name = "planned"
