@@ -71,15 +71,21 @@ def outcomes(t: Table) -> Iterator[list[tuple[str, str]]]:
 
 
 def unstable_outcome(t: Table) -> list[tuple[str, str]] | None:
-    """The first outcome with no stable table (only its unknown choices), or None."""
+    """The first outcome with no stable table (only its unknown choices; [] when
+    no outcome has one), or None when every outcome has one."""
     unknown = {f"{leg}.length" for leg, spec in t.legs.items() if len(spec.lengths) > 1}
     unknown |= {f"{leg}.shape" for leg, spec in t.legs.items() if len(spec.shapes) > 1}
     unknown |= {f"{foot}.shape" for foot, shapes in t.feet.items() if len(shapes) > 1}
-    for choice in outcomes(t):
-        got = dict(choice)
-        lengths = {leg: got[f"{leg}.length"] for leg in t.legs}
-        leg_shapes = {leg: got[f"{leg}.shape"] for leg in t.legs}
-        foot_shapes = {foot: got[f"{foot}.shape"] for foot in t.feet}
-        if not stable_exists(t.slots, lengths, leg_shapes, foot_shapes):
-            return [(name.split(".")[0], v) for name, v in choice if name in unknown]
-    return None
+    failed = [choice for choice in outcomes(t) if not _stable(t, dict(choice))]
+    if not failed:
+        return None
+    if len(failed) == sum(1 for _ in outcomes(t)):
+        return []
+    return [(name.split(".")[0], v) for name, v in failed[0] if name in unknown]
+
+
+def _stable(t: Table, got: dict[str, str]) -> bool:
+    lengths = {leg: got[f"{leg}.length"] for leg in t.legs}
+    leg_shapes = {leg: got[f"{leg}.shape"] for leg in t.legs}
+    foot_shapes = {foot: got[f"{foot}.shape"] for foot in t.feet}
+    return stable_exists(t.slots, lengths, leg_shapes, foot_shapes)

@@ -129,8 +129,9 @@ def _check_planned(s: ScenarioSections) -> None:
         raise FieldProblem(f"parts[{_index(s, tops[0].id)}].connections", "the top has no slots")
     missing = configuration.unstable_outcome(_table_of(s))
     if missing is not None:
-        told = ", ".join(f"{p} is {v}" for p, v in missing) or "as the file says"
-        raise FieldProblem("goal.configuration", f"no stable table when {told}")
+        told = ", ".join(f"{p} is {v}" for p, v in missing)
+        why = f"no stable table when {told}" if told else "no stable table from these parts"
+        raise FieldProblem("goal.configuration", why)
 
 
 def attachable_classes(s: ScenarioSections) -> list[tuple[str, str]]:
@@ -192,13 +193,16 @@ def _check_part(i: int, p: Part, regions: list[str]) -> None:
 
 
 def _check_known(s: ScenarioSections) -> None:
+    write = 'configuration = "planned"'
+    if s.goal.table is None:
+        write = f'table = "stable" and {write}'
     for i, p in enumerate(s.parts):
         for name, value in (("shape", p.shape), ("length", p.length)):
             if isinstance(value, list):
                 raise FieldProblem(
                     f"parts[{i}].{name}",
                     f"an unknown {name} ({' or '.join(value)}) needs the planner to choose the "
-                    'table: write configuration = "planned" under [goal]',
+                    f"table: write {write} under [goal]",
                 )
 
 

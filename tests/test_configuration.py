@@ -10,11 +10,14 @@ from __future__ import annotations
 import copy
 import json
 import os
+import time
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from app.execution import Executor
+from app.outcomes import ClickSource
 from planner import diagnosis
 from planner.audit import audit
 from planner.encoding import PLANNED
@@ -343,3 +346,44 @@ def test_tandem_check_passes_a_planned_plan_and_fails_a_broken_one(
     done = tandem("check", str(bad))
     assert done.returncode != 0
     assert "outcome not covered: square" in done.stdout + done.stderr
+
+
+def test_a_click_says_what_the_part_is(shapes_plan: Plan) -> None:
+    # The dashboard's buttons: a click answers the look, in words of the part.
+    clicks = ClickSource(timeout=None)
+    executor = Executor(shapes_plan, clicks)
+    executor.start()
+    seen: list[tuple[str, ...]] = []
+    while not executor.done:
+        offer = clicks.pending()
+        if offer is None:
+            time.sleep(0.001)
+            continue
+        node = shapes_plan.nodes[offer.node_id]
+        choice = node.expected or offer.options[0]
+        if isinstance(offer.action, SenseShapeOf):
+            seen.append(offer.words)
+            choice = "square"
+        if clicks.click(choice, offer.node_id):
+            while clicks.pending() == offer and not executor.done:
+                time.sleep(0.001)
+    assert executor.wait() == "goal"
+    assert seen == [("foot2 is circle", "foot2 is square")]
+    last = shapes_plan.nodes[executor.events[-1].node].state
+    assert "shapeIs(foot2,square)" in last
+
+
+def test_unknown_shapes_with_explicit_attachments_say_what_to_write() -> None:
+    text = SHAPES.replace('table = "stable"\nconfiguration = "planned"\n', "").replace(
+        "[goal]\n", '[goal]\nattachments = [["leg1", "top"]]\n'
+    )
+    assert _error(text) == (
+        "bad.toml: parts[5].shape: an unknown shape (circle or square) needs the planner to "
+        'choose the table: write table = "stable" and configuration = "planned" under [goal]'
+    )
+
+
+def test_parts_that_make_no_stable_table_are_refused() -> None:
+    # Three slots, but two tall legs and one short, whatever sensing says.
+    text = SHAPES.replace('connections = ["c1", "c2"]', 'connections = ["c1", "c2", "c3"]')
+    assert _error(text) == "bad.toml: goal.configuration: no stable table from these parts"
