@@ -20,6 +20,7 @@ from dataclasses import dataclass
 class Leg:
     lengths: tuple[str, ...]  # one entry when known
     shapes: tuple[str, ...]  # the hole's shape; one entry when known
+    dangerous: bool = False
 
 
 @dataclass(frozen=True)
@@ -30,6 +31,7 @@ class Table:
     slots: int
     legs: Mapping[str, Leg]
     feet: Mapping[str, tuple[str, ...]]
+    dangerous_feet: frozenset[str] = frozenset()  # every table must use them
 
 
 def options(t: Table) -> list[tuple[str, str]]:
@@ -49,14 +51,25 @@ def stable_exists(
     lengths: Mapping[str, str],
     leg_shapes: Mapping[str, str],
     foot_shapes: Mapping[str, str],
+    required: frozenset[str] = frozenset(),
 ) -> bool:
-    """Whether known parts make a stable table: for some length, legs of it
-    matched to distinct feet of their hole's shape fill every slot."""
+    """Whether known parts make a stable table that uses every `required` part:
+    for some length, legs of it matched to distinct feet of their hole's shape
+    fill every slot."""
     feet = Counter(foot_shapes.values())
     for length in set(lengths.values()):
+        if any(lengths[p] != length for p in required if p in lengths):
+            continue  # a required leg of another length cannot be on this table
         legs = Counter(leg_shapes[leg] for leg, x in lengths.items() if x == length)
-        # Each shape matches separately, so the largest matching is a sum.
-        if sum(min(n, feet[shape]) for shape, n in legs.items()) >= slots:
+        # Per shape, k legs (each with its foot) go on the table: at most what
+        # matches, at least what is required (feet of it, or legs of it).
+        most = {shape: min(n, feet[shape]) for shape, n in legs.items()}
+        need_feet = Counter(foot_shapes[p] for p in required if p in foot_shapes)
+        need_legs = Counter(leg_shapes[p] for p in required if p in leg_shapes)
+        least = {s: max(need_feet[s], need_legs[s]) for s in need_feet | need_legs}
+        if any(least[shape] > most.get(shape, 0) for shape in least):
+            continue
+        if sum(least.values()) <= slots <= sum(most.values()):
             return True
     return False
 
@@ -88,4 +101,5 @@ def _stable(t: Table, got: dict[str, str]) -> bool:
     lengths = {leg: got[f"{leg}.length"] for leg in t.legs}
     leg_shapes = {leg: got[f"{leg}.shape"] for leg in t.legs}
     foot_shapes = {foot: got[f"{foot}.shape"] for foot in t.feet}
-    return stable_exists(t.slots, lengths, leg_shapes, foot_shapes)
+    required = frozenset(leg for leg, spec in t.legs.items() if spec.dangerous) | t.dangerous_feet
+    return stable_exists(t.slots, lengths, leg_shapes, foot_shapes, required)

@@ -93,6 +93,10 @@ class PlannedTable:
         if len(set(lengths.values())) > 1:
             shown = ", ".join(f"{leg} {x or 'unknown'}" for leg, x in lengths.items())
             out.append(f"the legs on {self.top} differ in length ({shown})")
+        for part in sorted(self.f.dangerous & self.f.movable):
+            # Left over, it could end up in the human's hands for good (safety).
+            if not any(x[0] == "attached" and x[1] == part for x in s):
+                out.append(f"the dangerous {part} is not in the table")
         for leg in legs:
             feet = self._on(s, leg)
             if not feet:

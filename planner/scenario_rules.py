@@ -98,9 +98,11 @@ def _table_of(s: ScenarioSections) -> configuration.Table:
     return configuration.Table(
         top=top.id,
         slots=len(top.connection_points),
-        legs={p.id: configuration.Leg(tuple(p.length_options), tuple(p.shape_options))
+        legs={p.id: configuration.Leg(tuple(p.length_options), tuple(p.shape_options),
+                                      p.dangerous)
               for p in s.parts if p.kind == "leg"},
         feet={p.id: tuple(p.shape_options) for p in s.parts if p.kind == "foot"},
+        dangerous_feet=frozenset(p.id for p in s.parts if p.kind == "foot" and p.dangerous),
     )  # fmt: skip
 
 
