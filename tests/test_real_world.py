@@ -39,8 +39,8 @@ def test_the_bench_is_the_papers() -> None:
 
 @pytest.fixture(scope="module")
 def real_world_plan(tmp_path_factory: pytest.TempPathFactory) -> Plan:
-    # Measured on 2 loaded cores, one worker: 4.5 s cold (2.6 s of checks), 1.3 s warm;
-    # about 350 distinct nodes.
+    # Measured on 2 loaded cores, one worker: 4.8 s cold (1.9 s of checks), 3.3 s warm;
+    # about 680 distinct nodes.
     cache = tmp_path_factory.mktemp("checks")
     return plan_scenario(load_scenario(REAL_WORLD), workers=1, cache_dir=cache).plan
 
@@ -89,7 +89,10 @@ def test_it_plans_passes_the_audit_and_every_random_run_reaches_the_goal(
         assert executor.run() == "goal", seed
         leaves.add(executor.events[-1].node)
         last = plan.nodes[executor.events[-1].node].state
-        shapes |= {s for s in last if s.startswith("shapeIs(foot3,")}
+        shapes |= {s for s in last if s.startswith("shapeIs(")}
     assert len(leaves) > 1
-    # The random runs see foot3 both ways.
-    assert shapes == {"shapeIs(foot3,circle)", "shapeIs(foot3,square)"}
+    # The random runs see both unknown feet both ways.
+    assert shapes == {
+        "shapeIs(foot1,square)", "shapeIs(foot1,triangle)",
+        "shapeIs(foot3,circle)", "shapeIs(foot3,square)",
+    }  # fmt: skip
