@@ -70,13 +70,21 @@ class PlannedTable:
         # A foot and a leg whose known shapes differ are reported as a misfit below.
         return p in self.f.shapes and q in self.f.shapes and q != self.top
 
-    def look_first(self, s: State, part: str) -> list[str]:
-        """A part is grasped only once what it is is known (it may fit nowhere)."""
-        return [
+    def hold_failures(self, s: State, part: str) -> list[str]:
+        """A part is grasped only once what it is is known (it may fit nowhere),
+        and not while an arm holds a part attached to it (arms move one at a time)."""
+        out = [
             f"{PROPERTIES[q]}({part},_) known before grasping"
             for q in self.unknown(part)
             if self.known(s, q, part) is None
         ]
+        held = {x[2] for x in s if x[0] == "holding"}
+        out += [
+            f"not holding(_,{x[1]}) while {x[1]} is attached to {part}"
+            for x in sorted(s)
+            if x[0] == "attached" and x[2] == part and x[1] in held
+        ]
+        return out
 
     # -- the goal
     def _on(self, s: State, q: str) -> list[str]:

@@ -324,7 +324,7 @@ class Domain:
                 need(self.human_knows_not(s, p), f"humanKnowsNot({p})")
             need(self.still_needed(s, p), f"stillNeeded({p})")
             if self.table is not None:
-                fails.extend(self.table.look_first(s, p))
+                fails.extend(self.table.hold_failures(s, p))
         elif n in PROPERTIES:
             if self.table is None:
                 fails.append("plannedConfiguration")

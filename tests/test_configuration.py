@@ -387,3 +387,20 @@ def test_parts_that_make_no_stable_table_are_refused() -> None:
     # Three slots, but two tall legs and one short, whatever sensing says.
     text = SHAPES.replace('connections = ["c1", "c2"]', 'connections = ["c1", "c2", "c3"]')
     assert _error(text) == "bad.toml: goal.configuration: no stable table from these parts"
+
+
+def test_the_audit_flags_a_grasp_that_would_carry_the_other_arm(shapes_plan: Plan) -> None:
+    doc = copy.deepcopy(shapes_plan.to_json())
+    other = {"left": "right", "right": "left"}
+    node_id, arm, leg = next(
+        (n, arm, leg)
+        for n, node in doc["nodes"].items()
+        if (node["action"] or "").startswith("hold(")
+        for arm, leg in [node["action"][len("hold(") : -1].split(",")]
+        if leg.startswith("leg")
+        and not any(s.startswith(f"holding({other[arm]},") for s in node["state"])
+    )
+    carried = [f"attached(foot1,{leg},foot)", f"holding({other[arm]},foot1)"]
+    doc["nodes"][node_id]["state"] += carried
+    messages = [v.message for v in audit(doc) if v.node == node_id]
+    assert f"precondition failed: not holding(_,foot1) while foot1 is attached to {leg}" in messages
