@@ -33,6 +33,11 @@ class PlannedTable:
         fluent = PROPERTIES[query]
         return next((x[2] for x in sorted(s) if x[0] == fluent and x[1] == part), None)
 
+    def _may(self, s: State, query: str, part: str) -> list[str]:
+        """What the property may still be: the known value, else every option."""
+        seen = self.known(s, query, part)
+        return [seen] if seen is not None else self._options(query, part)
+
     def unknown(self, part: str) -> list[str]:
         """The queries whose answer about `part` is open among options."""
         return [q for q in PROPERTIES if len(self._options(q, part)) > 1]
@@ -97,9 +102,12 @@ class PlannedTable:
         slots = len(self.f.connections.get(self.top, set()))
         if len(legs) < slots:
             out.append(f"{self.top} holds {len(legs)} legs, has {slots} slots")
-        lengths = {leg: self.known(s, "lengthOf", leg) for leg in legs}
-        if len(set(lengths.values())) > 1:
-            shown = ", ".join(f"{leg} {x or 'unknown'}" for leg, x in lengths.items())
+        # Against what may be, not what is seen: every attach needed the fit
+        # seen, but a repair may start from what the human did unasked.
+        lengths = [set(self._may(s, "lengthOf", leg)) for leg in legs]
+        if lengths and not set.intersection(*lengths):
+            pairs = zip(legs, lengths, strict=True)
+            shown = ", ".join(f"{leg} {'/'.join(sorted(x))}" for leg, x in pairs)
             out.append(f"the legs on {self.top} differ in length ({shown})")
         for part in sorted(self.f.dangerous & self.f.movable):
             # Left over, it could end up in the human's hands for good (safety).
@@ -110,5 +118,6 @@ class PlannedTable:
             if not feet:
                 out.append(f"{leg} has no foot")
             for foot in feet:
-                out += [f"{foot} on {leg}: {why}" for why in self.fit_failures(s, foot, leg)]
+                if not set(self._may(s, "shapeOf", foot)) & set(self._may(s, "shapeOf", leg)):
+                    out.append(f"{foot} does not fit the hole of {leg}")
         return out
