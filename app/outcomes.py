@@ -27,6 +27,8 @@ from planner.vocabulary import (
     SenseHumanHolding,
     SenseHumanHoldingWhichPart,
     SenseHumanUnholding,
+    SenseLengthOf,
+    SenseShapeOf,
 )
 
 Node = PlanNode
@@ -90,6 +92,8 @@ def describe(action: Action | None, label: str | None) -> str:
             return words.get(label, label)
         case SenseHumanAttachingWhere(part, onto):
             return f"Human attaches {part} to {onto} at {label}"
+        case SenseShapeOf(part) | SenseLengthOf(part):
+            return f"{part} is {label}"
     if action.name in QUESTIONS and label in ("yes", "no"):
         return f"Human says {label}"
     return f"{action}: {label}"

@@ -38,6 +38,8 @@ from planner.vocabulary import (
     SenseHumanHolding,
     SenseHumanHoldingWhichPart,
     SenseHumanUnholding,
+    SenseLengthOf,
+    SenseShapeOf,
     Unhold,
     parse_action,
     parse_fluent,
@@ -298,6 +300,10 @@ class SimulatedHuman:
                 slot = self._pick(free or list(options))
                 w.human_attach(part, onto, slot)
                 return slot
+            case SenseShapeOf() | SenseLengthOf():
+                # What the part turns out to be: the human does nothing; a click
+                # (or the seed) decides what the bench really holds.
+                return self._pick(list(options))
         return None
 
     def _takeable(self, node: PlanNode) -> list[str]:

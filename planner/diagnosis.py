@@ -71,6 +71,9 @@ class _Bench:
 
     def __init__(self, scenario: Scenario, reachable: Set[tuple[str, str]]) -> None:
         self.s = scenario
+        # A planned table has no pair fixed in advance (goal_pairs() is empty), so
+        # no pair is a necessary condition and nothing is refused here; the
+        # scenario's own check has made sure every sensing outcome has a table.
         self.goal = scenario.goal_pairs()
         self.onto = dict(self.goal)  # part -> what the goal attaches it to
         self.arms = {p.id: {m for m, q in reachable if q == p.id} for p in scenario.parts}

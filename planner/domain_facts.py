@@ -16,6 +16,7 @@ _FACT_ARITY: dict[str, int] = {
     "dangerous": 1, "region": 1, "humanReach": 1, "loc": 2, "manipulator": 1,
     "reachable": 2, "goal": 2, "safety": 1, "verbosity": 1, "initiative": 1,
     "resumed": 0,
+    "plannedConfiguration": 0, "goalOption": 2, "shapeOption": 2, "lengthOption": 2,
 }  # fmt: skip
 
 
@@ -39,6 +40,12 @@ class Facts:
     verbosity: str = "normal"
     initiative: int = DEFAULT_INITIATIVE  # how often the human may pick a part up unasked
     resumed: bool = False  # planned from a later state (a repair): no greeting again
+    # A planned configuration (planner.domain_config): the pairs a table may
+    # use, and what each part's shape and length may be (one option: known).
+    planned: bool = False
+    goal_options: list[tuple[str, str]] = field(default_factory=list)
+    shapes: dict[str, list[str]] = field(default_factory=dict)
+    lengths: dict[str, list[str]] = field(default_factory=dict)
 
 
 def parse_facts(items: object) -> tuple[Facts, list[str]]:
@@ -95,6 +102,15 @@ def _add_fact(f: Facts, name: str, a: tuple[str, ...]) -> str | None:
     elif name == "goal":
         if (a[0], a[1]) not in f.goals:
             f.goals.append((a[0], a[1]))
+    elif name == "plannedConfiguration":
+        f.planned = True
+    elif name == "goalOption":
+        if (a[0], a[1]) not in f.goal_options:
+            f.goal_options.append((a[0], a[1]))
+    elif name in ("shapeOption", "lengthOption"):
+        options = (f.shapes if name == "shapeOption" else f.lengths).setdefault(a[0], [])
+        if a[1] not in options:
+            options.append(a[1])
     elif name == "safety":
         f.safety = a[0]
     elif name == "verbosity":

@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from planner.domain_config import PROPERTIES, PlannedTable
 from planner.domain_facts import Facts, parse_facts, term_order
 from planner.vocabulary import Term, TermError, constants, parse_term
 
@@ -34,6 +35,8 @@ FLUENT_ARITY: dict[str, int] = {
     "declined": 2,
     "keepsHolding": 1,
     "initiatives": 1,  # initiatives(N): the human took the initiative N times
+    "shapeIs": 2,  # planned configurations: what sensing saw (planner.domain_config)
+    "lengthIs": 2,
 }
 TASKS = ("wantToAttach", "acceptToAttach", "requestedAttach")
 HUMAN_FREE: Fluent = ("humanFree",)
@@ -96,6 +99,8 @@ _ACTIONS: dict[str, tuple[str, tuple[str, ...], bool]] = {
     "humanHoldingWhichPart": (SENSING, (), False),
     "humanUnholding": (SENSING, ("part",), False),
     "humanAttachingWhere": (SENSING, ("part", "part"), False),
+    "shapeOf": (SENSING, ("part",), False),
+    "lengthOf": (SENSING, ("part",), False),
     "confirmAttach": (COMMUNICATION, ("part", "part"), False),
     "askHelp": (COMMUNICATION, ("part", "part"), False),
     "offerHelp": (COMMUNICATION, ("part", "part"), False),
@@ -157,6 +162,19 @@ class Domain:
 
     def __init__(self, facts: Facts) -> None:
         self.f = facts
+        self.table = PlannedTable(facts) if facts.planned else None
+
+    def join_failures(self, s: State, p: str, q: str) -> list[str]:
+        """Why the final configuration may not attach P to Q in `s`: not a goal
+        fact, or (planned) not seen to fit (which also rules out every pair no
+        stable table contains)."""
+        if self.table is not None:
+            return self.table.fit_failures(s, p, q)
+        return [] if (p, q) in self.f.goals else [f"goal({p},{q})"]
+
+    def goal_onto(self, p: str) -> list[str]:
+        pairs = self.f.goal_options if self.table is not None else self.f.goals
+        return [q for gp, q in pairs if gp == p]
 
     # -- derived notions, evaluated in the state before the action
     def held_by(self, s: State, m: str) -> list[str]:
@@ -221,6 +239,10 @@ class Domain:
         return points[0] if points else None
 
     def still_needed(self, s: State, p: str) -> bool:
+        if self.table is not None:
+            # Which table the planner chose is its own; any part a table may use
+            # and not yet in place may be needed.
+            return bool(self.goal_onto(p)) and not self.is_attached(s, p)
         return any(
             gp == p and not any(x[0] == "attached" and x[1:3] == (p, q) for x in s)
             for gp, q in self.f.goals
@@ -246,9 +268,8 @@ class Domain:
         return {
             ("reserved", p),
             ("keepsHolding", p),
-            *(("declined", p, q) for gp, q in self.f.goals if gp == p),
+            *(("declined", p, q) for q in self.goal_onto(p)),
         }
-
 
     def lapse(self, s: State) -> State:
         # The human may have picked up any candidate meanwhile.
@@ -279,7 +300,7 @@ class Domain:
                 )
         if n in ("confirmAttach", "askHelp", "offerHelp", "requestToAttach"):
             # The shared tail of every "the human attaches P to Q" action.
-            need((p, q) in f.goals, f"goal({p},{q})")
+            fails.extend(self.join_failures(s, p, q))
             need(self.free_point(s, p, q) is not None, f"freePoint({p},{q},_)")
             need(self.human_workable(s, q), f"humanWorkable({q})")
         if n in ("askHelp", "requestToAttach"):
@@ -302,6 +323,13 @@ class Domain:
             if self.in_reach(p):
                 need(self.human_knows_not(s, p), f"humanKnowsNot({p})")
             need(self.still_needed(s, p), f"stillNeeded({p})")
+            if self.table is not None:
+                fails.extend(self.table.hold_failures(s, p))
+        elif n in PROPERTIES:
+            if self.table is None:
+                fails.append("plannedConfiguration")
+            else:
+                fails.extend(self.table.sense_failures(s, n, p))
         elif n == "attach":
             fails.extend(self._attach_preconditions(s, a))
         elif n == "unhold":
@@ -352,8 +380,7 @@ class Domain:
             fails.append(f"{p} != {q}")
         if self.is_attached(s, p):
             fails.append(f"not attached({p},_,_)")
-        if (p, q) not in self.f.goals:
-            fails.append(f"goal({p},{q})")
+        fails.extend(self.join_failures(s, p, q))
         if self.free_point(s, p, q) != c:
             fails.append(f"freePoint({p},{q},{c})")
         if any(t[2] == q for t in self.tasks(s)):
@@ -406,6 +433,8 @@ class Domain:
             return {c: counted | {("humanHoldingPart", c)} for c in self.candidates(s)}
         if n == "humanUnholding":
             return {"yes": (s - hand) | {HUMAN_FREE}, "no": s | {("keepsHolding", p)}}
+        if n in PROPERTIES:
+            return {} if self.table is None else self.table.sense_outcomes(s, n, p)
         if n == "humanAttachingWhere":
             done = {(t, p, q) for t in TASKS} | hand | self.settled(p)
             c = self.free_point(s, p, q)
@@ -428,7 +457,8 @@ class Domain:
 
     # -- goal and consistency
     def goal_failures(self, s: State) -> list[str]:
-        out = [
+        out = [] if self.table is None else self.table.stable_failures(s)
+        out += [
             f"{p} is not attached to {q}"
             for p, q in self.f.goals
             if not any(y[0] == "attached" and y[1:3] == (p, q) for y in s)

@@ -17,12 +17,17 @@ CONCERNS = (
     "sensing",
     "communication",
     "commonsense",
+    "configuration",
     "safety",
     "feasibility",
     "goal",
     "milestones",
     "preferences",
 )
+
+
+# The fact that makes the planner choose the final configuration (configuration.lp).
+PLANNED = "plannedConfiguration"
 
 
 class EncodingError(RuntimeError):
@@ -68,8 +73,14 @@ def ground(
     (`.../state.lp:12:3-9: error: syntax error ...`); `directory` replaces the
     shipped encodings (tests break a copy).
     """
+    facts = list(facts)
     skipped = tuple(skip)
     messages = _Messages(expect_undefined=bool(skipped))
+    if PLANNED not in facts:
+        # A fixed configuration grounds without the planned one's rules: even
+        # rules that instantiate nothing reorder clasp's atoms, and so would
+        # change which of several optimal plans a fixed scenario gets.
+        skipped = (*skipped, "configuration")
     ctl = clingo.Control(["-c", f"h={horizon}", *options], logger=messages)
     try:
         for file in encoding_files(skipped, directory):

@@ -66,6 +66,10 @@ class Scenario(StrictModel):
         """The final configuration as (P, Q): P attached to Q."""
         return scenario_rules.goal_pairs(self)
 
+    def goal_options(self) -> list[tuple[str, str]]:
+        """The (P, Q) pairs a planned configuration chooses from (docs/scenario.md)."""
+        return scenario_rules.goal_options(self)
+
     def reachable_pairs(self) -> set[tuple[str, str]]:
         """Declared feasibility as (manipulator, part) pairs."""
         pairs: set[tuple[str, str]] = set()
@@ -90,7 +94,8 @@ class Scenario(StrictModel):
         facts |= {f"humanReach({r.id})" for r in self.regions if r.human_reach}
         facts |= {f"manipulator({m})" for m in self.robot.manipulators}
         for p in self.parts:
-            facts |= {f"part({p.id})", f"class({p.class_name},{p.id})", f"loc({p.id},{p.region})"}
+            cls = p.kind if self.goal.planned and p.kind != "top" else p.class_name
+            facts |= {f"part({p.id})", f"class({cls},{p.id})", f"loc({p.id},{p.region})"}
             facts |= {f"connection({p.id},{c})" for c in p.connection_points}
             if p.movable:
                 facts.add(f"movable({p.id})")
@@ -99,6 +104,8 @@ class Scenario(StrictModel):
         facts |= {f"attachable({a},{b})" for a, b in scenario_rules.attachable_classes(self)}
         facts |= {f"reachable({m},{p})" for m, p in reach}
         facts |= {f"goal({p},{q})" for p, q in self.goal_pairs()}
+        if self.goal.planned:
+            facts |= self._configuration_facts()
         facts.add(f"safety({self.preferences.safety})")
         facts.add(f"initiative({self.human.initiative})")
         facts.add(f"verbosity({self.preferences.verbosity})")
@@ -106,6 +113,15 @@ class Scenario(StrictModel):
             # Only when not the default, so English plans keep their facts and hashes.
             facts.add(f'language("{self.human.language}")')
         return sorted(facts)
+
+    def _configuration_facts(self) -> set[str]:
+        # Only for a planned configuration, so fixed scenarios keep their facts and hashes.
+        facts = {"plannedConfiguration"}
+        facts |= {f"goalOption({p},{q})" for p, q in self.goal_options()}
+        for p in self.parts:
+            facts |= {f"shapeOption({p.id},{v})" for v in p.shape_options}
+            facts |= {f"lengthOption({p.id},{v})" for v in p.length_options}
+        return facts
 
     def _check_reach_override(self, reach: set[tuple[str, str]]) -> None:
         # A typo here would silently make a part unreachable; fail loudly instead.

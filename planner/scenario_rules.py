@@ -12,6 +12,7 @@ from collections import Counter
 from collections.abc import Iterable, Sequence
 from typing import Protocol
 
+from planner import configuration
 from planner.scenario_sections import Feasibility, Goal, Part, Region, Robot
 
 
@@ -61,13 +62,24 @@ def check(s: ScenarioSections) -> None:
     regions = [r.id for r in s.regions]
     for i, p in enumerate(s.parts):
         _check_part(i, p, regions)
+    if not s.goal.planned:
+        _check_known(s)
     _check_classes(s)
     _check_feasibility(s, regions)
-    goal_pairs(s)  # derives (and so checks) the final configuration
+    if s.goal.planned:
+        _check_planned(s)
+    else:
+        goal_pairs(s)  # derives (and so checks) the final configuration
 
 
 def goal_pairs(s: ScenarioSections) -> list[tuple[str, str]]:
-    """The final configuration as (P, Q) pairs; raises `FieldProblem` if impossible."""
+    """The final configuration as (P, Q) pairs; raises `FieldProblem` if impossible.
+
+    Empty when the configuration is planned: the planner chooses it per branch
+    (`goal_options` lists the pairs it chooses from).
+    """
+    if s.goal.planned:
+        return []
     if s.goal.table is not None:
         return _stable_table(s)
     pairs = [(p, q) for p, q in s.goal.attachments or []]
@@ -75,8 +87,60 @@ def goal_pairs(s: ScenarioSections) -> list[tuple[str, str]]:
     return pairs
 
 
+def goal_options(s: ScenarioSections) -> list[tuple[str, str]]:
+    """(P, Q) pairs a planned stable table may contain: every leg on the top, and
+    every foot on a leg whose hole it may fit."""
+    return configuration.options(_table_of(s))
+
+
+def _table_of(s: ScenarioSections) -> configuration.Table:
+    top = next(p for p in s.parts if p.kind == "top")
+    return configuration.Table(
+        top=top.id,
+        slots=len(top.connection_points),
+        legs={p.id: configuration.Leg(tuple(p.length_options), tuple(p.shape_options),
+                                      p.dangerous)
+              for p in s.parts if p.kind == "leg"},
+        feet={p.id: tuple(p.shape_options) for p in s.parts if p.kind == "foot"},
+        dangerous_feet=frozenset(p.id for p in s.parts if p.kind == "foot" and p.dangerous),
+    )  # fmt: skip
+
+
+def _check_planned(s: ScenarioSections) -> None:
+    """A planned table: one top, legs and feet only, and a stable table whatever
+    the sensing reveals (an outcome without one would be a dead end)."""
+    if s.goal.table is None:
+        raise FieldProblem(
+            "goal.configuration",
+            'only with table = "stable": explicit attachments fix the configuration',
+        )
+    tops = [p for p in s.parts if p.kind == "top"]
+    if len(tops) != 1:
+        found = ", ".join(p.id for p in tops) or "none"
+        raise FieldProblem("goal.table", f"a stable table needs exactly one top (found: {found})")
+    for i, p in enumerate(s.parts):
+        if p.kind == "other":
+            raise FieldProblem(
+                f"parts[{i}].kind", "a planned table is made of a top, legs and feet only"
+            )
+        if p.kind == "leg" and not p.connection_points:
+            raise FieldProblem(
+                f"parts[{i}].connections", f"leg {p.id!r} needs a connection point for its foot"
+            )
+    if not tops[0].connection_points:
+        raise FieldProblem(f"parts[{_index(s, tops[0].id)}].connections", "the top has no slots")
+    missing = configuration.unstable_outcome(_table_of(s))
+    if missing is not None:
+        told = ", ".join(f"{p} is {v}" for p, v in missing)
+        why = f"no stable table when {told}" if told else "no stable table from these parts"
+        raise FieldProblem("goal.configuration", why)
+
+
 def attachable_classes(s: ScenarioSections) -> list[tuple[str, str]]:
     """(Cl, Cl2): a part of class Cl may be attached to a part of class Cl2."""
+    if s.goal.planned:
+        # Classes are the kinds; which foot fits which leg is decided by shape, in ASP.
+        return [("foot", "leg"), ("leg", "top")]
     pairs: set[tuple[str, str]] = set()
     for p in s.parts:
         if p.kind == "leg":
@@ -118,12 +182,38 @@ def _check_part(i: int, p: Part, regions: list[str]) -> None:
     for name in _REQUIRED.get(p.kind, ()):
         if name not in given:
             raise FieldProblem(f"{at}.{name}", f"missing: a {p.kind} needs a {name}")
+    for name in ("shape", "length"):
+        options = given.get(name)
+        if isinstance(options, list):
+            _check_options(f"{at}.{name}", name, options)
     if p.kind == "other" and p.class_ is None:
         raise FieldProblem(f"{at}.class", "missing: an 'other' part needs a class")
     _unique_at(
         ((f"{at}.connections[{j}]", c) for j, c in enumerate(p.connection_points)),
         "connection point",
     )
+
+
+def _check_known(s: ScenarioSections) -> None:
+    write = 'configuration = "planned"'
+    if s.goal.table is None:
+        write = f'table = "stable" and {write}'
+    for i, p in enumerate(s.parts):
+        for name, value in (("shape", p.shape), ("length", p.length)):
+            if isinstance(value, list):
+                raise FieldProblem(
+                    f"parts[{i}].{name}",
+                    f"an unknown {name} ({' or '.join(value)}) needs the planner to choose the "
+                    f"table: write {write} under [goal]",
+                )
+
+
+def _check_options(at: str, name: str, options: list[str]) -> None:
+    if len(options) < 2:
+        raise FieldProblem(
+            at, f"an unknown {name} lists at least two options (a known one is a plain word)"
+        )
+    _unique_at(((f"{at}[{j}]", o) for j, o in enumerate(options)), "option")
 
 
 def _check_classes(s: ScenarioSections) -> None:

@@ -47,6 +47,9 @@ Word = Annotated[str, AfterValidator(_word)]
 Extent = Annotated[list[float], Field(min_length=2, max_length=2)]
 Pose = Annotated[list[float], Field(min_length=3, max_length=3)]
 Pair = Annotated[list[ConstId], Field(min_length=2, max_length=2)]
+# A property the robot knows (`"square"`), or the options it may turn out to be
+# (`["square", "triangle"]`): a sensing action reveals which (docs/scenario.md).
+Property = Word | list[Word]
 PartKind = Literal["top", "leg", "foot", "other"]
 
 
@@ -127,20 +130,39 @@ class Part(StrictModel):
     pose: Pose | None = None
     size: Pose | None = None
     marker: Annotated[int, Field(ge=0)] | None = None
-    length: Word | None = None
-    shape: Word | None = None
+    length: Property | None = None
+    shape: Property | None = None
     dangerous: bool = False
     class_: ConstId | None = Field(default=None, alias="class")
     attaches_to: list[ConstId] | None = None
 
     @property
     def class_name(self) -> str:
-        """The ASP class; only meaningful once the scenario checks have passed."""
+        """The ASP class; only meaningful once the scenario checks have passed.
+
+        A fixed configuration needs known shapes (`leg_<shape>`); a planned one
+        uses the kind alone and matches shapes in ASP (`planner/asp/configuration.lp`).
+        """
         if self.kind == "top":
             return "top"
         if self.kind in ("leg", "foot"):
-            return f"{self.kind}_{self.shape}"
+            return f"{self.kind}_{self.shape}" if isinstance(self.shape, str) else self.kind
         return self.class_ or ""
+
+    @property
+    def shape_options(self) -> list[str]:
+        """What the shape may be: one entry when known."""
+        return _options(self.shape)
+
+    @property
+    def length_options(self) -> list[str]:
+        """What the length may be: one entry when known."""
+        return _options(self.length)
+
+    @property
+    def unknown(self) -> bool:
+        """Whether a property of the part is open among options."""
+        return isinstance(self.shape, list) or isinstance(self.length, list)
 
     @property
     def connection_points(self) -> list[str]:
@@ -153,8 +175,20 @@ class Part(StrictModel):
         return self.kind != "top"
 
 
+def _options(value: str | list[str] | None) -> list[str]:
+    if value is None:
+        return []
+    return [value] if isinstance(value, str) else list(value)
+
+
+# fixed: the scenario's rules pick the table before planning (`goal(P,Q)` facts);
+# planned: the planner picks it per branch, from what it has sensed.
+Configuration = Literal["fixed", "planned"]
+
+
 class Goal(StrictModel):
     table: Literal["stable"] | None = None
+    configuration: Configuration | None = None
     attachments: Annotated[list[Pair], Field(min_length=1)] | None = None
 
     @model_validator(mode="after")
@@ -162,3 +196,8 @@ class Goal(StrictModel):
         if (self.table is None) == (self.attachments is None):
             raise ValueError("expected exactly one of `table` or `attachments`")
         return self
+
+    @property
+    def planned(self) -> bool:
+        """Whether the planner chooses the final configuration."""
+        return self.configuration == "planned"

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import clingo
 
-from planner.encoding import FeasibilityContext, ground
+from planner.encoding import PLANNED, FeasibilityContext, ground
 from planner.vocabulary import Action, State, parse_action
 
 # clasp keeps heuristic scores and learnt constraints from one solve to the next,
@@ -86,6 +86,10 @@ class BranchSolver:
             step_skip = tuple(sorted({*self.skip, "milestones", "preferences"}))
             ctl = ground(self.facts, 1, self.context, skip=step_skip)
             ctl.configuration.solve.models = 0  # type: ignore[union-attr]
+            if PLANNED in self.facts:
+                # The table each model chooses (configuration.lp) is not shown:
+                # one model per outcome, not one per table.
+                ctl.configuration.solve.project = "show"  # type: ignore[union-attr]
             self._step = (ctl, _externals(ctl, "init"))
         return self._step
 

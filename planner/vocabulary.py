@@ -202,15 +202,35 @@ class Initiatives(_Word):
     count: str
 
 
+@dataclass(frozen=True)
+class ShapeIs(_Word):
+    """The robot has seen that `part` (a foot, or a leg's hole) is `shape`."""
+
+    name: ClassVar[str] = "shapeIs"
+    part: str
+    shape: str
+
+
+@dataclass(frozen=True)
+class LengthIs(_Word):
+    """The robot has seen that the leg `part` is `length`."""
+
+    name: ClassVar[str] = "lengthIs"
+    part: str
+    length: str
+
+
 Fluent = (
     Attached | Holding | HumanFree | HumanHolding | HumanHoldingPart | WantToAttach
     | AcceptToAttach | RequestedAttach | Reserved | Declined | KeepsHolding | Initiatives
+    | ShapeIs | LengthIs
 )
 FLUENTS: dict[str, type[Fluent]] = {
     c.name: c
     for c in (
         Attached, Holding, HumanFree, HumanHolding, HumanHoldingPart, WantToAttach,
         AcceptToAttach, RequestedAttach, Reserved, Declined, KeepsHolding, Initiatives,
+        ShapeIs, LengthIs,
     )
 }  # fmt: skip
 # A task pending with the human: the goal is not reached while one is.
@@ -402,6 +422,24 @@ class SenseHumanAttachingWhere(_Sensing):
     onto: str
 
 
+@dataclass(frozen=True)
+class SenseShapeOf(_Sensing):
+    """Look at `part`: its shape (a leg: its hole's) is one outcome per option."""
+
+    name: ClassVar[str] = "shapeOf"
+    kind: ClassVar[str] = "sensing"
+    part: str
+
+
+@dataclass(frozen=True)
+class SenseLengthOf(_Sensing):
+    """Look at the leg `part`: its length is one outcome per option."""
+
+    name: ClassVar[str] = "lengthOf"
+    kind: ClassVar[str] = "sensing"
+    part: str
+
+
 Actuation = Hold | Attach | Unhold
 Conversation = Greet | Farewell | WarnWorking | WarnDanger | ExplainAsk | ExplainOwnTask
 Communication = (
@@ -409,6 +447,7 @@ Communication = (
 )
 Sensing = (
     SenseHumanHolding | SenseHumanHoldingWhichPart | SenseHumanUnholding | SenseHumanAttachingWhere
+    | SenseShapeOf | SenseLengthOf
 )
 Action = Actuation | Communication | Sensing
 
@@ -421,8 +460,10 @@ _ACTIONS: dict[str, type[Actuation | Communication]] = {
 _QUERIES: dict[str, type[Sensing]] = {
     c.name: c
     for c in (SenseHumanHolding, SenseHumanHoldingWhichPart, SenseHumanUnholding,
-              SenseHumanAttachingWhere)
+              SenseHumanAttachingWhere, SenseShapeOf, SenseLengthOf)
 }  # fmt: skip
+# Sensing what a part is, rather than what the human does (planned configurations).
+PROPERTY_QUERIES = (SenseShapeOf.name, SenseLengthOf.name)
 ACTION_TYPES: tuple[type[Action], ...] = (*_ACTIONS.values(), *_QUERIES.values())
 # Questions the human answers yes or no; requests are complied with.
 QUESTIONS = (ConfirmAttach.name, AskHelp.name, OfferHelp.name)

@@ -33,8 +33,11 @@ def test_instance_names_follow_the_paper_numbering() -> None:
     assert paper.instance_name("P", 2) == "paper-06"
     assert paper.instance_name("R", 6) == "paper-15"
     assert paper.instance_name("R", 10) == "R10"
-    assert len(planner_benchmark.instances()) == 27
-    assert len(planner_benchmark.instances(families=False)) == 15
+    # The 15 instances, the families continued to n=10, and the real-world task last.
+    assert len(planner_benchmark.instances()) == 28
+    assert len(planner_benchmark.instances(families=False)) == 16
+    assert planner_benchmark.instances()[-1] == planner_benchmark.REAL_WORLD
+    assert planner_benchmark.instances(["real-world"]) == [planner_benchmark.REAL_WORLD]
 
 
 @pytest.mark.parametrize("name", PAPER_NAMES)

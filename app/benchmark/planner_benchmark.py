@@ -26,6 +26,9 @@ from planner.resources import scenario_path
 from planner.scenario import Scenario, load_scenario, parse_scenario
 
 SCENARIO_DIR = scenario_path("paper")
+# The paper's real-world task (README, "The real-world task"): benchmarked after
+# the instances, always with geometry (it has no declared table).
+REAL_WORLD_PATH = scenario_path("real-world.toml")
 
 
 @dataclass(frozen=True)
@@ -110,6 +113,9 @@ class Instance:
     paper_instance: int | None
 
 
+REAL_WORLD = Instance("real-world", "", 0, None)
+
+
 def instances(
     only: Sequence[str] = (), families: bool = True, families_to: int = 10
 ) -> list[Instance]:
@@ -121,8 +127,9 @@ def instances(
         Instance(paper.instance_name(f, n), f, n, paper.instance_number(f, n))
         for f, n in paper.all_instances(families=True, to=families_to if not only else 99)
     ]
+    every.append(REAL_WORLD)
     if not only:
-        return [i for i in every if families or i.paper_instance is not None]
+        return [i for i in every if families or i.paper_instance is not None or i == REAL_WORLD]
     by_name = {i.name: i for i in every}
     unknown = [name for name in only if name not in by_name]
     if unknown:
@@ -136,7 +143,10 @@ def load(
 ) -> Scenario:
     """The committed file if there is one, else the generator's text (identical by test).
 
-    `feasibility = "declared"`: the generator's declared table instead of geometry."""
+    `feasibility = "declared"`: the generator's declared table instead of geometry
+    (the real-world task has none: it is always checked with geometry)."""
+    if instance == REAL_WORLD:
+        return load_scenario(REAL_WORLD_PATH)
     path = directory / f"{instance.name}.toml"
     if feasibility == "geometry" and path.exists():
         return load_scenario(path)
@@ -303,7 +313,8 @@ def table_row(row: BenchmarkRow) -> tuple[str, ...]:
     else:
         theirs = ("-",) * 11
     ratio = f"{row.ratio:.0f}x" if row.ratio is not None else "-"
-    return (inst.name, f"{inst.family}{inst.n}", *ours, row.check, "|", *theirs, ratio)
+    family = f"{inst.family}{inst.n}" if inst.family else "-"
+    return (inst.name, family, *ours, row.check, "|", *theirs, ratio)
 
 
 def summary(rows: Sequence[BenchmarkRow], repeat: int = 1) -> list[str]:

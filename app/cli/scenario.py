@@ -33,10 +33,12 @@ def _check(args: argparse.Namespace) -> int:
             print(err, file=sys.stderr)
             status = 2
             continue
-        print(
-            f"{file}: ok ({len(scenario.parts)} parts, "
-            f"{len(scenario.goal_pairs())} goal attachments)"
+        goal = (
+            "the table planned per branch"
+            if scenario.goal.planned
+            else f"{len(scenario.goal_pairs())} goal attachments"
         )
+        print(f"{file}: ok ({len(scenario.parts)} parts, {goal})")
     return status
 
 

@@ -34,6 +34,7 @@ from app.retargeting import retargeter_for
 from app.session_db import StoreError
 from app.store import SessionStore
 from planner.plan import Motion, Plan
+from planner.vocabulary import SenseLengthOf, SenseShapeOf
 
 # Who answers and who speaks in an execution of a plan, given the clicks to fall
 # back on (the speech panel's `responses`); without one the clicks answer, silently.
@@ -221,7 +222,10 @@ class ExecutionPanel:
         if offer is None:
             return
         with self._lock:
-            self.question.content = f"**{offer.action}**: what does the human do?"
+            # Sensing a part's shape or length asks what is on the bench, not the human.
+            part = isinstance(offer.action, SenseShapeOf | SenseLengthOf)
+            asked = "what is it?" if part else "what does the human do?"
+            self.question.content = f"**{offer.action}**: {asked}"
             with self.human_folder:
                 for label, words in zip(offer.options, offer.words, strict=True):
                     button = self.gui.add_button(words)
