@@ -22,6 +22,7 @@ from planner.feasibility.arms import ARMS, HOME
 from planner.feasibility.path_planner import plan_path, seed_ompl
 from planner.feasibility.robot import BaxterBody, load_robot
 from planner.feasibility.scene import PartBox, Scene, build_scene
+from planner.feasibility.workspace import wrist_bound
 from planner.scenario_model import Scenario
 
 Reason = Literal["ok", "no IK", "IK in collision", "no path"]
@@ -77,6 +78,7 @@ class World:
         self.scene: Scene = build_scene(self.client, scenario)
         self._body_part = {b: pid for pid, b in self.scene.bodies.items()}
         self._reach_radius = {a: self._arm_length(a) for a in ARMS}
+        self._wrist_bound = {a: wrist_bound(self.robot, a, POS_TOL, ORN_TOL) for a in ARMS}
         self._moving = self.robot.arm_links["left"] | self.robot.arm_links["right"]
         self._ik_limits = self._joint_limits()
         self._ignore_static_contacts()
@@ -199,6 +201,8 @@ class World:
         poses = self.grasp_poses(box, arm)
         if min(math.dist(shoulder, p) for p, _ in poses) > self._reach_radius[arm]:
             return  # farther than the arm stretched straight: skip IK
+        if all(self._wrist_bound[arm].out_of_reach(p, o) for p, o in poses):
+            return  # no wrist position can serve the grasp: skip IK (workspace.py)
         lo, hi = np.array(self.robot.lower[arm]), np.array(self.robot.upper[arm])
         best = math.inf
         for attempt in range(IK_ATTEMPTS):
