@@ -26,6 +26,11 @@ from planner.solver import BranchSolver, Successor
 from planner.vocabulary import Action, State
 
 MAX_HORIZON_FACTOR = 8
+# Seconds of solving done in the coordinator's own process before worker processes
+# start. Forking them and grounding the domain once more in each costs more than
+# most plans take, and on a busy machine every round pays their scheduling. Where
+# the states are solved never changes the plan: it depends on the window alone.
+INLINE_SOLVE_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -183,6 +188,7 @@ class ConditionalPlanner:
         on_first_branch: Callable[[dict[State, DagNode]], None] | None = None,
         window: int = 0,
         engine: Engine | None = None,
+        inline_s: float = INLINE_SOLVE_S,
     ) -> None:
         self.goal_pairs = tuple(goal_pairs)
         self.workers = workers or mp.cpu_count()
@@ -192,6 +198,7 @@ class ConditionalPlanner:
         # the number of workers or which finished first (0: two per worker).
         self.window = window or 2 * self.workers
         self.engine = engine
+        self.inline_s = inline_s
         # (round, seconds) of every solve, and the coordinator's seconds spent
         # integrating results: enough to replay the run on more workers.
         self.trace: list[tuple[int, float]] = []
@@ -224,9 +231,14 @@ class ConditionalPlanner:
         pending: dict[Future[BranchResult], State] = {}
         first_done = False
         rounds = 0
-        executor = self._executor()
+        inline = self.engine is None and (self.workers <= 1 or self.inline_s > 0)
+        executor = self._inline() if inline else self._executor()
         try:
             while (queue or pending) and not self.cancelled:
+                if inline and self.workers > 1 and self.solve_s >= self.inline_s:
+                    # A long plan: on to the worker processes (inline solves leave
+                    # nothing pending between rounds).
+                    inline, executor = False, self._executor()
                 asked = set(pending.values())
                 while queue and len(pending) < self.window:
                     state = queue.popleft()
@@ -277,18 +289,21 @@ class ConditionalPlanner:
         return root
 
     # -- execution backends
+    def _inline(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
+        planner = _BranchPlanner(self.problem)
+
+        def inline(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
+            fut: Future[BranchResult] = Future()
+            fut.set_result(planner.branch(state, forbid))
+            return fut
+
+        return inline
+
     def _executor(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
         if self.engine is not None:
             return self.engine.submit
         if self.workers <= 1:
-            planner = _BranchPlanner(self.problem)
-
-            def inline(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
-                fut: Future[BranchResult] = Future()
-                fut.set_result(planner.branch(state, forbid))
-                return fut
-
-            return inline
+            return self._inline()
         self._pool = ProcessPoolExecutor(
             max_workers=self.workers,
             mp_context=mp.get_context("fork"),

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from planner import conversation, diagnosis
-from planner.hcp import ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
+from planner.hcp import INLINE_SOLVE_S, ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.plan import Plan, build_plan
 from planner.scenario import Scenario
 from planner.vocabulary import State
@@ -96,6 +96,7 @@ def plan_scenario(
     cluster: str | None = None,
     window: int = 0,
     start: State | None = None,
+    inline_s: float = INLINE_SOLVE_S,
 ) -> PlanResult:
     """Plans every contingency of `scenario`; raises `hcp.DeadEnd` if no plan exists.
 
@@ -108,12 +109,23 @@ def plan_scenario(
     `check_workers` how many processes check geometry (None: as many as `workers`).
     `cluster` ("auto", "ray://HOST:PORT") solves branches on Ray actors, `workers`
     of them (0: one per CPU of the cluster); `window` is how many states are
-    solved side by side (0: two per worker; the plan depends on it alone).
+    solved side by side (0: two per worker; the plan depends on it alone);
+    `inline_s` how many seconds of solving this process does before starting the
+    worker processes (hcp.INLINE_SOLVE_S).
     """
     checkers = workers if check_workers is None else check_workers
     with bench_checks(scenario, cache_dir, checkers or (1 if cluster else 0)) as checks:
         return _plan(
-            scenario, checks, workers, progress, planner_hook, skip, cluster, window, start
+            scenario,
+            checks,
+            workers,
+            progress,
+            planner_hook,
+            skip,
+            cluster,
+            window,
+            start,
+            inline_s,
         )
 
 
@@ -127,6 +139,7 @@ def _plan(
     cluster: str | None = None,
     window: int = 0,
     start: State | None = None,
+    inline_s: float = INLINE_SOLVE_S,
 ) -> PlanResult:
     t0 = time.perf_counter()
     reachable, checks_s = feasible_pairs(scenario, checks)
@@ -162,6 +175,7 @@ def _plan(
         on_first_branch=on_first,
         window=window,
         engine=engine,
+        inline_s=inline_s,
     )
     if planner_hook:
         planner_hook(planner)

@@ -69,7 +69,8 @@ def wrist_bound(robot: BaxterBody, arm: str, pos_tol: float, orn_tol: float) -> 
     height = float(rel @ axis)
     ee_position, ee_rotation = frame(robot.end_effector[arm])
     in_hand = ee_rotation.T @ (origins[-1] - ee_position)
-    chain = sum(float(np.linalg.norm(b - a)) for a, b in zip(origins[1:], origins[2:], strict=False))
+    links = zip(origins[1:], origins[2:], strict=False)
+    chain = sum(float(np.linalg.norm(b - a)) for a, b in links)
     return WristBound(
         axis_point=s0_position,
         axis=axis,
