@@ -26,10 +26,10 @@ from planner.solver import BranchSolver, Successor
 from planner.vocabulary import Action, State
 
 MAX_HORIZON_FACTOR = 8
-# Seconds of solving done in the coordinator's own process before worker processes
-# start. Forking them and grounding the domain once more in each costs more than
-# most plans take, and on a busy machine every round pays their scheduling. Where
-# the states are solved never changes the plan: it depends on the window alone.
+# CPU seconds of planning done in the coordinator's own process before worker
+# processes start. Forking them and grounding the domain once more in each costs
+# more than most plans take, and on a busy machine every round pays their
+# scheduling. Where states are solved never changes the plan (the window alone does).
 INLINE_SOLVE_S = 2.0
 
 
@@ -233,9 +233,10 @@ class ConditionalPlanner:
         rounds = 0
         inline = self.engine is None and (self.workers <= 1 or self.inline_s > 0)
         executor = self._inline() if inline else self._executor()
+        cpu0 = time.process_time()  # CPU, not wall: a busy machine must not hurry the switch
         try:
             while (queue or pending) and not self.cancelled:
-                if inline and self.workers > 1 and self.solve_s >= self.inline_s:
+                if inline and self.workers > 1 and time.process_time() - cpu0 >= self.inline_s:
                     # A long plan: on to the worker processes (inline solves leave
                     # nothing pending between rounds).
                     inline, executor = False, self._executor()

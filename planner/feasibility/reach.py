@@ -19,7 +19,7 @@ import numpy as np
 
 from planner.feasibility._bullet import pb
 from planner.feasibility.arms import ARMS, HOME
-from planner.feasibility.path_planner import plan_path, seed_ompl
+from planner.feasibility.path_planner import FoundPath, find_path, finish_path, plan_path, seed_ompl
 from planner.feasibility.robot import BaxterBody, load_robot
 from planner.feasibility.scene import PartBox, Scene, build_scene
 from planner.feasibility.workspace import wrist_bound
@@ -48,6 +48,18 @@ GOALS_WANTED = 3  # collision-free IK goals to try paths to
 class _IkSearch:
     accurate: bool = False  # some IK solution met the pose, colliding or not
     goals: list[list[float]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class ReachDecision:
+    """Whether an arm reaches a part, before its path is simplified; `found` lives
+    in the process that decided (OMPL objects do not cross processes)."""
+
+    reachable: bool
+    reason: Reason
+    seconds: float
+    found: FoundPath | None
+    simplify_seed: int = 0
 
 
 @dataclass(frozen=True)
@@ -133,6 +145,11 @@ class World:
     # -- the query -----------------------------------------------------------
 
     def check_reach(self, arm: str, part: str) -> ReachResult:
+        return self.finish_reach(self.decide_reach(arm, part))
+
+    def decide_reach(self, arm: str, part: str) -> ReachDecision:
+        """The answer of `check_reach`; its path is made by `finish_reach`, which may
+        come after other queries (the simplifier's random numbers are its own)."""
         start = time.perf_counter()
         self.robot.go_home()
         box = self.scene.parts[part]
@@ -142,7 +159,7 @@ class World:
         # Goals come one at a time: the first one usually has a path, and IK restarts
         # cost more than a path query.
         for goal in self._ik_goals(arm, box, rng, search):
-            path = plan_path(
+            found = find_path(
                 lambda q: self.is_valid(arm, q, part),
                 HOME[arm],
                 goal,
@@ -151,14 +168,26 @@ class World:
                 planner=self.planner,
                 time_limit=self.time_limit,
             )
-            if path is not None:
+            if found is not None:
                 self.robot.go_home()
-                return ReachResult(True, "ok", time.perf_counter() - start, path)
+                seed = zlib.crc32(f"{self.seed}/{arm}/{part}/simplify".encode())
+                return ReachDecision(True, "ok", time.perf_counter() - start, found, seed)
         self.robot.go_home()
         reason: Reason = (
             "no path" if search.goals else "IK in collision" if search.accurate else "no IK"
         )
-        return ReachResult(False, reason, time.perf_counter() - start, None)
+        return ReachDecision(False, reason, time.perf_counter() - start, None)
+
+    def finish_reach(self, decision: ReachDecision) -> ReachResult:
+        """The decided answer with its path (from home to the grasp)."""
+        if decision.found is None:
+            return ReachResult(decision.reachable, decision.reason, decision.seconds, None)
+        start = time.perf_counter()
+        self.robot.go_home()  # the world the path was found in
+        path = finish_path(decision.found, decision.simplify_seed)
+        self.robot.go_home()
+        seconds = decision.seconds + time.perf_counter() - start
+        return ReachResult(decision.reachable, decision.reason, seconds, path)
 
     def move(
         self, arm: str, start: list[float], goal: list[float], parts: frozenset[str]
