@@ -189,6 +189,7 @@ class ConditionalPlanner:
         window: int = 0,
         engine: Engine | None = None,
         inline_s: float = INLINE_SOLVE_S,
+        on_planned: Callable[[list[DagNode]], None] | None = None,
     ) -> None:
         self.goal_pairs = tuple(goal_pairs)
         self.workers = workers or mp.cpu_count()
@@ -199,6 +200,9 @@ class ConditionalPlanner:
         self.window = window or 2 * self.workers
         self.engine = engine
         self.inline_s = inline_s
+        # Told after each round which nodes got an action (e.g. to start their motions).
+        self.on_planned = on_planned
+        self._fresh: list[DagNode] = []
         # (round, seconds) of every solve, and the coordinator's seconds spent
         # integrating results: enough to replay the run on more workers.
         self.trace: list[tuple[int, float]] = []
@@ -280,6 +284,9 @@ class ConditionalPlanner:
                         first_done = True
                         if self.on_first_branch:
                             self.on_first_branch(self.nodes)
+                if self.on_planned and self._fresh:
+                    self.on_planned(self._fresh)
+                self._fresh = []
                 self.integrate_s += time.perf_counter() - t_round
                 if self.progress:
                     self.progress(self._progress(len(queue) + len(pending), t0))
@@ -365,6 +372,7 @@ class ConditionalPlanner:
             if node.action is not None or node.goal:
                 break  # the rest of this branch is already planned
             node.action = step.action
+            self._fresh.append(node)
             node.children = [(o.label, o.state) for o in step.outcomes]
             node.expected = step.chosen
             last = step is result.steps[-1]

@@ -14,7 +14,7 @@ from planner import conversation, diagnosis
 from planner.hcp import INLINE_SOLVE_S, ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.plan import Plan, build_plan
 from planner.scenario import Scenario
-from planner.vocabulary import State
+from planner.vocabulary import Attach, State
 
 if TYPE_CHECKING:
     from planner.feasibility.checks import BenchChecks
@@ -176,6 +176,7 @@ def _plan(
         window=window,
         engine=engine,
         inline_s=inline_s,
+        on_planned=None if checks is None else _motion_prefetch(checks, first),
     )
     if planner_hook:
         planner_hook(planner)
@@ -206,3 +207,31 @@ def _plan(
         plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
         plan.statistics["checks_s"] = round(checks_s, 3)
     return PlanResult(plan, first[0] if first else plan.statistics["plan_s"], planner.solves)
+
+
+def _motion_prefetch(
+    checks: BenchChecks, first_branch: list[float]
+) -> Callable[[list[DagNode]], None]:
+    """Starts the part-to-part motions of newly planned attach actions in the check
+    pool while planning goes on; `add_motions` finds them there once the plan is built.
+
+    Held back until the first branch exists (its planning comes first on a busy
+    machine) and the reach paths are ready (a motion starts where a reach path ends,
+    and planning must never wait for one)."""
+    from planner.feasibility.plan_motions import _endpoints
+
+    backlog: list[DagNode] = []
+
+    def prefetch(planned: list[DagNode]) -> None:
+        backlog.extend(n for n in planned if isinstance(n.action, Attach))
+        if not backlog or not first_branch or not checks.paths_ready():
+            return
+        moves = [
+            _endpoints(n.action, sorted(n.state), checks)
+            for n in backlog
+            if isinstance(n.action, Attach)  # not replanned after a dead end
+        ]
+        backlog.clear()
+        checks.prefetch_moves((arm, a, b) for arm, a, b in moves if a is not None and b)
+
+    return prefetch

@@ -122,6 +122,10 @@ class BenchChecks:
             for pair in pairs
         }
 
+    def paths_ready(self) -> bool:
+        """True when the reach paths are at hand (`at` and `move` would not wait)."""
+        return all(batch.done() for batch in self._batches)
+
     def _collect(self) -> None:
         """Waits for the pool's batches and keeps (and caches) their full results,
         in the order the pairs were asked for, not the order they finished."""
