@@ -3,8 +3,9 @@
 The builder asks for an optimal sequential plan from the start state (the
 solver picks the outcome of each nondeterministic action), then plans again
 from the state after every other outcome, until every leaf is a goal. Each
-distinct state is planned once, so the plan is a DAG. Solves run in worker
-processes, each holding its own grounded program (ground once, solve many).
+distinct state is planned once, so the plan is a DAG. Solves run in the
+coordinator's process, and in worker processes once planning has taken
+INLINE_SOLVE_S, each holding its own grounded program (ground once, solve many).
 An outcome from which the goal cannot be reached bans the action that led to
 it and plans its parent again; a dead end at the start state is reported.
 """

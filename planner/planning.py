@@ -156,6 +156,8 @@ def _plan(
 
     def on_first(_: dict[State, DagNode]) -> None:
         first.append(time.perf_counter() - t0)
+        if checks is not None:
+            checks.release_paths()  # smoothing the reach paths may take the cores now
 
     engine = None
     if cluster is not None:

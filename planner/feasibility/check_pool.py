@@ -9,7 +9,8 @@ answered before.
 Reach checks are asked for in batches (`decide`): the processes take pairs from
 one queue as they become free, report each answer the moment it is known, and
 simplify the paths of the pairs they found reachable only after the queue is
-empty, so planning can start while paths are still being smoothed.
+empty and `release_paths` was called, so planning starts without waiting for
+paths and the first branch need not share the cores with their smoothing.
 """
 
 from __future__ import annotations
@@ -30,12 +31,15 @@ _world: World | None = None
 _setup: tuple[Scenario, dict[str, Any]] | None = None
 _pairs: Any = None  # the queue of pairs to decide; None marks the end of a batch
 _decided: Any = None  # (pair, reachable, reason) back to the parent, as decided
+_go: Any = None  # set when the paths may be simplified
 
 
-def _init(scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any) -> None:
-    global _setup, _world, _pairs, _decided
+def _init(
+    scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any, go: Any
+) -> None:
+    global _setup, _world, _pairs, _decided, _go
     _setup, _world = (scenario, options), None
-    _pairs, _decided = pairs, decided
+    _pairs, _decided, _go = pairs, decided, go
 
 
 def _own_world() -> World:
@@ -54,6 +58,7 @@ def _decide_then_finish() -> dict[Pair, ReachResult]:
         decision = world.decide_reach(*pair)
         _decided.put((pair, decision.reachable, decision.reason))
         mine.append((pair, decision))
+    _go.wait()
     return {pair: world.finish_reach(decision) for pair, decision in mine}
 
 
@@ -74,11 +79,12 @@ class CheckPool:
         self._workers = workers
         self._pairs: Any = context.Queue()
         self._decided: Any = context.Queue()
+        self._go: Any = context.Event()
         self._pool = ProcessPoolExecutor(
             max_workers=workers,
             mp_context=context,
             initializer=_init,
-            initargs=(scenario, options, self._pairs, self._decided),
+            initargs=(scenario, options, self._pairs, self._decided, self._go),
         )
         # Every process loads the robot at once, while the first answers are awaited.
         for _ in range(workers):
@@ -92,6 +98,10 @@ class CheckPool:
         for _ in range(self._workers):
             self._pairs.put(None)  # one end mark per batch: each stops at one
         return [self._pool.submit(_decide_then_finish) for _ in range(self._workers)]
+
+    def release_paths(self) -> None:
+        """Lets the processes simplify the paths they decided (and all later ones)."""
+        self._go.set()
 
     def decisions(
         self, count: int, batches: Sequence[Future[dict[Pair, ReachResult]]]
@@ -115,4 +125,5 @@ class CheckPool:
         return self._pool.submit(_move, arm, start, goal, parts)
 
     def close(self) -> None:
+        self._go.set()  # a batch waiting for it would never end
         self._pool.shutdown(wait=True, cancel_futures=True)

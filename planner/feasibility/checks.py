@@ -122,6 +122,12 @@ class BenchChecks:
             for pair in pairs
         }
 
+    def release_paths(self) -> None:
+        """The pool may now simplify the paths of the answers it gave (until then it
+        leaves the cores to planning)."""
+        if self._pool is not None:
+            self._pool.release_paths()
+
     def paths_ready(self) -> bool:
         """True when the reach paths are at hand (`at` and `move` would not wait)."""
         return all(batch.done() for batch in self._batches)
@@ -129,6 +135,7 @@ class BenchChecks:
     def _collect(self) -> None:
         """Waits for the pool's batches and keeps (and caches) their full results,
         in the order the pairs were asked for, not the order they finished."""
+        self.release_paths()
         done: dict[Pair, ReachResult] = {}
         for batch in self._batches:
             done.update(batch.result())
