@@ -3,8 +3,9 @@
 The builder asks for an optimal sequential plan from the start state (the
 solver picks the outcome of each nondeterministic action), then plans again
 from the state after every other outcome, until every leaf is a goal. Each
-distinct state is planned once, so the plan is a DAG. Solves run in worker
-processes, each holding its own grounded program (ground once, solve many).
+distinct state is planned once, so the plan is a DAG. Solves run in the
+coordinator's process, and in worker processes once planning has taken
+INLINE_SOLVE_S, each holding its own grounded program (ground once, solve many).
 An outcome from which the goal cannot be reached bans the action that led to
 it and plans its parent again; a dead end at the start state is reported.
 """
@@ -26,6 +27,11 @@ from planner.solver import BranchSolver, Successor
 from planner.vocabulary import Action, State
 
 MAX_HORIZON_FACTOR = 8
+# CPU seconds of planning done in the coordinator's own process before worker
+# processes start. Forking them and grounding the domain once more in each costs
+# more than most plans take, and on a busy machine every round pays their
+# scheduling. Where states are solved never changes the plan (the window alone does).
+INLINE_SOLVE_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -183,6 +189,8 @@ class ConditionalPlanner:
         on_first_branch: Callable[[dict[State, DagNode]], None] | None = None,
         window: int = 0,
         engine: Engine | None = None,
+        inline_s: float = INLINE_SOLVE_S,
+        on_planned: Callable[[list[DagNode]], None] | None = None,
     ) -> None:
         self.goal_pairs = tuple(goal_pairs)
         self.workers = workers or mp.cpu_count()
@@ -192,6 +200,10 @@ class ConditionalPlanner:
         # the number of workers or which finished first (0: two per worker).
         self.window = window or 2 * self.workers
         self.engine = engine
+        self.inline_s = inline_s
+        # Told after each round which nodes got an action (e.g. to start their motions).
+        self.on_planned = on_planned
+        self._fresh: list[DagNode] = []
         # (round, seconds) of every solve, and the coordinator's seconds spent
         # integrating results: enough to replay the run on more workers.
         self.trace: list[tuple[int, float]] = []
@@ -224,9 +236,15 @@ class ConditionalPlanner:
         pending: dict[Future[BranchResult], State] = {}
         first_done = False
         rounds = 0
-        executor = self._executor()
+        inline = self.engine is None and (self.workers <= 1 or self.inline_s > 0)
+        executor = self._inline() if inline else self._executor()
+        cpu0 = time.process_time()  # CPU, not wall: a busy machine must not hurry the switch
         try:
             while (queue or pending) and not self.cancelled:
+                if inline and self.workers > 1 and time.process_time() - cpu0 >= self.inline_s:
+                    # A long plan: on to the worker processes (inline solves leave
+                    # nothing pending between rounds).
+                    inline, executor = False, self._executor()
                 asked = set(pending.values())
                 while queue and len(pending) < self.window:
                     state = queue.popleft()
@@ -267,6 +285,9 @@ class ConditionalPlanner:
                         first_done = True
                         if self.on_first_branch:
                             self.on_first_branch(self.nodes)
+                if self.on_planned and self._fresh:
+                    self.on_planned(self._fresh)
+                self._fresh = []
                 self.integrate_s += time.perf_counter() - t_round
                 if self.progress:
                     self.progress(self._progress(len(queue) + len(pending), t0))
@@ -277,18 +298,21 @@ class ConditionalPlanner:
         return root
 
     # -- execution backends
+    def _inline(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
+        planner = _BranchPlanner(self.problem)
+
+        def inline(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
+            fut: Future[BranchResult] = Future()
+            fut.set_result(planner.branch(state, forbid))
+            return fut
+
+        return inline
+
     def _executor(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
         if self.engine is not None:
             return self.engine.submit
         if self.workers <= 1:
-            planner = _BranchPlanner(self.problem)
-
-            def inline(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
-                fut: Future[BranchResult] = Future()
-                fut.set_result(planner.branch(state, forbid))
-                return fut
-
-            return inline
+            return self._inline()
         self._pool = ProcessPoolExecutor(
             max_workers=self.workers,
             mp_context=mp.get_context("fork"),
@@ -349,6 +373,7 @@ class ConditionalPlanner:
             if node.action is not None or node.goal:
                 break  # the rest of this branch is already planned
             node.action = step.action
+            self._fresh.append(node)
             node.children = [(o.label, o.state) for o in step.outcomes]
             node.expected = step.chosen
             last = step is result.steps[-1]

@@ -11,10 +11,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from planner import conversation, diagnosis
-from planner.hcp import ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
+from planner.hcp import INLINE_SOLVE_S, ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.plan import Plan, build_plan
 from planner.scenario import Scenario
-from planner.vocabulary import State
+from planner.vocabulary import Attach, State
 
 if TYPE_CHECKING:
     from planner.feasibility.checks import BenchChecks
@@ -79,8 +79,8 @@ def feasible_pairs(
     if checks is None:
         return frozenset(scenario.reachable_pairs()), 0.0
     t0 = time.perf_counter()
-    table = checks.table()
-    pairs = frozenset(pair for pair, result in table.items() if result.reachable)
+    # Answers alone: the paths of the pool's checks are made while planning runs.
+    pairs = frozenset(pair for pair, reachable in checks.answers().items() if reachable)
     return pairs, time.perf_counter() - t0
 
 
@@ -96,6 +96,7 @@ def plan_scenario(
     cluster: str | None = None,
     window: int = 0,
     start: State | None = None,
+    inline_s: float = INLINE_SOLVE_S,
 ) -> PlanResult:
     """Plans every contingency of `scenario`; raises `hcp.DeadEnd` if no plan exists.
 
@@ -108,12 +109,23 @@ def plan_scenario(
     `check_workers` how many processes check geometry (None: as many as `workers`).
     `cluster` ("auto", "ray://HOST:PORT") solves branches on Ray actors, `workers`
     of them (0: one per CPU of the cluster); `window` is how many states are
-    solved side by side (0: two per worker; the plan depends on it alone).
+    solved side by side (0: two per worker; the plan depends on it alone);
+    `inline_s` how many seconds of solving this process does before starting the
+    worker processes (hcp.INLINE_SOLVE_S).
     """
     checkers = workers if check_workers is None else check_workers
     with bench_checks(scenario, cache_dir, checkers or (1 if cluster else 0)) as checks:
         return _plan(
-            scenario, checks, workers, progress, planner_hook, skip, cluster, window, start
+            scenario,
+            checks,
+            workers,
+            progress,
+            planner_hook,
+            skip,
+            cluster,
+            window,
+            start,
+            inline_s,
         )
 
 
@@ -127,6 +139,7 @@ def _plan(
     cluster: str | None = None,
     window: int = 0,
     start: State | None = None,
+    inline_s: float = INLINE_SOLVE_S,
 ) -> PlanResult:
     t0 = time.perf_counter()
     reachable, checks_s = feasible_pairs(scenario, checks)
@@ -145,6 +158,8 @@ def _plan(
 
     def on_first(_: dict[State, DagNode]) -> None:
         first.append(time.perf_counter() - t0)
+        if checks is not None:
+            checks.release_paths()  # smoothing the reach paths may take the cores now
 
     engine = None
     if cluster is not None:
@@ -164,6 +179,8 @@ def _plan(
         on_first_branch=on_first,
         window=window,
         engine=engine,
+        inline_s=inline_s,
+        on_planned=None if checks is None else _motion_prefetch(checks, first),
     )
     if planner_hook:
         planner_hook(planner)
@@ -194,3 +211,31 @@ def _plan(
         plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
         plan.statistics["checks_s"] = round(checks_s, 3)
     return PlanResult(plan, first[0] if first else plan.statistics["plan_s"], planner.solves)
+
+
+def _motion_prefetch(
+    checks: BenchChecks, first_branch: list[float]
+) -> Callable[[list[DagNode]], None]:
+    """Starts the part-to-part motions of newly planned attach actions in the check
+    pool while planning goes on; `add_motions` finds them there once the plan is built.
+
+    Held back until the first branch exists (its planning comes first on a busy
+    machine) and the reach paths are ready (a motion starts where a reach path ends,
+    and planning must never wait for one)."""
+    from planner.feasibility.plan_motions import endpoints
+
+    backlog: list[DagNode] = []
+
+    def prefetch(planned: list[DagNode]) -> None:
+        backlog.extend(n for n in planned if isinstance(n.action, Attach))
+        if not backlog or not first_branch or not checks.paths_ready():
+            return
+        moves = [
+            endpoints(n.action, sorted(n.state), checks)
+            for n in backlog
+            if isinstance(n.action, Attach)  # not replanned after a dead end
+        ]
+        backlog.clear()
+        checks.prefetch_moves((arm, a, b) for arm, a, b in moves if a is not None and b)
+
+    return prefetch

@@ -9,6 +9,7 @@ import pytest
 from planner import paper
 from planner.feasibility import BenchChecks, CheckCache
 from planner.feasibility.plan_motions import add_motions
+from planner.hcp import ConditionalPlanner, DagNode
 from planner.planning import plan_scenario
 from planner.scenario import load_scenario, parse_scenario
 
@@ -75,3 +76,30 @@ def test_families_continue_to_any_size() -> None:
     assert sum(p.dangerous for p in u18.parts) == 18
     with pytest.raises(ValueError, match="feasibility"):
         paper.scenario_toml("U", 3, "maybe")
+
+
+def test_motions_started_while_planning_are_those_of_one_process(tmp_path: Path) -> None:
+    # With a pool, answers come before their paths are simplified and attach motions
+    # start in the pool while planning goes on: the plan must not notice.
+    scenario = load_scenario(PAPER_DIR / "paper-03.toml")
+    started: list[int] = []
+
+    def count(planner: ConditionalPlanner) -> None:
+        seen = planner.on_planned
+        assert seen is not None  # geometric feasibility: motions are prefetched
+
+        def spy(planned: list[DagNode]) -> None:
+            seen(planned)
+            started.append(len(planned))
+
+        planner.on_planned = spy
+
+    alone = plan_scenario(scenario, workers=1, cache_dir=tmp_path / "one").plan
+    pooled = plan_scenario(
+        scenario, workers=1, check_workers=2, cache_dir=tmp_path / "two", planner_hook=count
+    ).plan
+    assert started
+    docs = [alone.to_json(), pooled.to_json()]
+    for doc in docs:
+        doc["stats"] = {k: v for k, v in doc["stats"].items() if not k.endswith("_s")}
+    assert docs[0] == docs[1]

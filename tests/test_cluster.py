@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -47,9 +48,11 @@ def test_one_and_two_ray_actors_give_the_plan_of_local_planning(name: str, tmp_p
 def test_local_workers_give_the_same_plan_for_one_window() -> None:
     # Results are integrated per round in request order and every solve depends on
     # its state alone, so the number of processes does not change the plan.
-    assert _doc(name="paper/paper-05.toml", workers=2, window=4) == _doc(
-        name="paper/paper-05.toml", workers=3, window=4
-    )
+    pool = _doc(name="paper/paper-05.toml", workers=2, window=4, inline_s=0)
+    assert pool == _doc(name="paper/paper-05.toml", workers=3, window=4, inline_s=0)
+    # Nor does solving in this process first and in the pool later, or only here.
+    assert pool == _doc(name="paper/paper-05.toml", workers=2, window=4, inline_s=0.3)
+    assert pool == _doc(name="paper/paper-05.toml", workers=2, window=4, inline_s=math.inf)
 
 
 def test_one_worker_keeps_the_solvers_defaults() -> None:

@@ -5,26 +5,41 @@ own `World` (a DIRECT client made after the fork) on first use. Every query
 reseeds its random numbers from its own arguments (`World.check_reach`,
 `World.move`), so an answer does not depend on which process gave it or what it
 answered before.
+
+Reach checks are asked for in batches (`decide`): the processes take pairs from
+one queue as they become free, report each answer the moment it is known, and
+simplify the paths of the pairs they found reachable only after the queue is
+empty and `release_paths` was called, so planning starts without waiting for
+paths and the first branch need not share the cores with their smoothing.
 """
 
 from __future__ import annotations
 
 import multiprocessing as mp
+import queue
+from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from typing import Any
 
-from planner.feasibility.reach import ReachResult, World
+from planner.feasibility.reach import ReachDecision, ReachResult, Reason, World
 from planner.scenario_model import Scenario
 
 Config = list[float]
+Pair = tuple[str, str]  # arm, part
 
 _world: World | None = None
 _setup: tuple[Scenario, dict[str, Any]] | None = None
+_pairs: Any = None  # the queue of pairs to decide; None marks the end of a batch
+_decided: Any = None  # (pair, reachable, reason) back to the parent, as decided
+_go: Any = None  # set when the paths may be simplified
 
 
-def _init(scenario: Scenario, options: dict[str, Any]) -> None:
-    global _setup, _world
+def _init(
+    scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any, go: Any
+) -> None:
+    global _setup, _world, _pairs, _decided, _go
     _setup, _world = (scenario, options), None
+    _pairs, _decided, _go = pairs, decided, go
 
 
 def _own_world() -> World:
@@ -36,8 +51,15 @@ def _own_world() -> World:
     return _world
 
 
-def _reach(arm: str, part: str) -> ReachResult:
-    return _own_world().check_reach(arm, part)
+def _decide_then_finish() -> dict[Pair, ReachResult]:
+    world = _own_world()
+    mine: list[tuple[Pair, ReachDecision]] = []
+    while (pair := _pairs.get()) is not None:
+        decision = world.decide_reach(*pair)
+        _decided.put((pair, decision.reachable, decision.reason))
+        mine.append((pair, decision))
+    _go.wait()
+    return {pair: world.finish_reach(decision) for pair, decision in mine}
 
 
 def _move(arm: str, start: Config, goal: Config, parts: frozenset[str]) -> list[Config] | None:
@@ -53,18 +75,49 @@ class CheckPool:
     """`workers` processes answering `World.check_reach` and `World.move` queries."""
 
     def __init__(self, scenario: Scenario, options: dict[str, Any], workers: int) -> None:
+        context = mp.get_context("fork")
+        self._workers = workers
+        self._pairs: Any = context.Queue()
+        self._decided: Any = context.Queue()
+        self._go: Any = context.Event()
         self._pool = ProcessPoolExecutor(
             max_workers=workers,
-            mp_context=mp.get_context("fork"),
+            mp_context=context,
             initializer=_init,
-            initargs=(scenario, options),
+            initargs=(scenario, options, self._pairs, self._decided, self._go),
         )
         # Every process loads the robot at once, while the first answers are awaited.
         for _ in range(workers):
             self._pool.submit(_warm_up)
 
-    def reach(self, arm: str, part: str) -> Future[ReachResult]:
-        return self._pool.submit(_reach, arm, part)
+    def decide(self, pairs: Sequence[Pair]) -> list[Future[dict[Pair, ReachResult]]]:
+        """Starts the reach checks of `pairs`; the futures give their full results
+        (with paths), `decisions` the answers as they come."""
+        for pair in pairs:
+            self._pairs.put(pair)
+        for _ in range(self._workers):
+            self._pairs.put(None)  # one end mark per batch: each stops at one
+        return [self._pool.submit(_decide_then_finish) for _ in range(self._workers)]
+
+    def release_paths(self) -> None:
+        """Lets the processes simplify the paths they decided (and all later ones)."""
+        self._go.set()
+
+    def decisions(
+        self, count: int, batches: Sequence[Future[dict[Pair, ReachResult]]]
+    ) -> Iterator[tuple[Pair, bool, Reason]]:
+        """The next `count` answers, in the order they were decided."""
+        for _ in range(count):
+            while True:
+                try:
+                    pair, reachable, reason = self._decided.get(timeout=0.5)
+                    break
+                except queue.Empty:
+                    # A process that died never answers: its batch says why.
+                    for batch in batches:
+                        if batch.done() and batch.exception() is not None:
+                            raise RuntimeError("a check process failed") from batch.exception()
+            yield pair, reachable, reason
 
     def move(
         self, arm: str, start: Config, goal: Config, parts: frozenset[str]
@@ -72,4 +125,5 @@ class CheckPool:
         return self._pool.submit(_move, arm, start, goal, parts)
 
     def close(self) -> None:
+        self._go.set()  # a batch waiting for it would never end
         self._pool.shutdown(wait=True, cancel_futures=True)

@@ -2,9 +2,11 @@
 
 `BenchChecks` opens a pybullet `World` (or, with `workers` > 1, a `CheckPool` of
 processes) only on the first cache miss, so a plan whose checks are all cached
-loads neither the robot nor OMPL's planners. `prefetch_reach` and `prefetch_moves`
-ask for many answers at once, so the pool works on them side by side; answers
-go into the cache in the order they are asked for, not the order they finish.
+loads neither the robot nor OMPL's planners. `answers` and `prefetch_moves` ask
+for many answers at once, so the pool works on them side by side. `answers`
+returns as soon as every pair is decided: the paths (needed only for the plan's
+motions) are simplified meanwhile, and reach the cache when first asked for or
+when the checks close.
 
 A motion goes between places: a part id (its work point, as reachability checks
 it) or a `Site` (a connection point where the state puts it: scene.py). Sites are
@@ -19,8 +21,8 @@ from typing import Any
 
 from planner.feasibility.arms import ARMS, HOME
 from planner.feasibility.cache import CheckCache, geometry_key
-from planner.feasibility.check_pool import CheckPool
-from planner.feasibility.reach import PlannerName, ReachResult, World
+from planner.feasibility.check_pool import CheckPool, Pair
+from planner.feasibility.reach import PlannerName, ReachResult, Reason, World
 from planner.feasibility.scene import Site
 from planner.scenario_model import Scenario
 
@@ -52,9 +54,11 @@ class BenchChecks:
         self._world: World | None = None
         self._workers = workers
         self._pool: CheckPool | None = None
-        self._reach: dict[tuple[str, str], ReachResult] = {}
+        self._reach: dict[Pair, ReachResult] = {}
         self._site_reach: dict[tuple[str, Site], ReachResult] = {}
-        self._reach_pending: dict[tuple[str, str], Future[ReachResult]] = {}
+        # Decided in the pool, their paths still being made by `_batches`.
+        self._decided: dict[Pair, tuple[bool, Reason]] = {}
+        self._batches: list[Future[dict[Pair, ReachResult]]] = []
         self._move_pending: dict[Move, Future[list[Config] | None]] = {}
 
     @property
@@ -71,6 +75,8 @@ class BenchChecks:
         return self._pool
 
     def close(self) -> None:
+        if self._batches:
+            self._collect()  # every answer into the cache, paths and all
         if self._world is not None:
             self._world.close()
             self._world = None
@@ -86,33 +92,66 @@ class BenchChecks:
 
     def reach(self, arm: str, part: str) -> ReachResult:
         """Can `arm` reach `part` from home (its work point: docs/scenario.md)?"""
+        if (arm, part) in self._decided:
+            self._collect()
         if (arm, part) in self._reach:
             return self._reach[(arm, part)]
         key = f"{self.key}/reach/{arm}/{part}"
-        pending = self._reach_pending.pop((arm, part), None)
-        if pending is not None:
-            result = pending.result()
-            self.cache.put(key, result.__dict__)
+        stored = self.cache.get(key)
+        if stored is not None:
+            result = ReachResult(**stored)
         else:
-            stored = self.cache.get(key)
-            if stored is not None:
-                result = ReachResult(**stored)
-            else:
-                result = self.world.check_reach(arm, part)
-                self.cache.put(key, result.__dict__)
+            result = self.world.check_reach(arm, part)
+            self.cache.put(key, result.__dict__)
         self._reach[(arm, part)] = result
         return result
 
-    def prefetch_reach(self, pairs: Iterable[tuple[str, str]]) -> None:
-        """Starts the checks of `pairs` that are neither known nor cached, in the pool."""
+    def answers(self) -> dict[Pair, bool]:
+        """Whether each arm reaches each part (every pair, in file order), without
+        waiting for the paths of the pool's checks."""
+        pairs = self.pairs()
+        todo = []
         for arm, part in pairs:
-            if (arm, part) in self._reach or (arm, part) in self._reach_pending:
+            if (arm, part) in self._reach or (arm, part) in self._decided:
                 continue
             stored = self.cache.get(f"{self.key}/reach/{arm}/{part}")
             if stored is not None:
                 self._reach[(arm, part)] = ReachResult(**stored)
-            elif self.pool is not None:
-                self._reach_pending[(arm, part)] = self.pool.reach(arm, part)
+            else:
+                todo.append((arm, part))
+        if todo and self.pool is not None:
+            batches = self.pool.decide(todo)
+            self._batches.extend(batches)
+            for pair, reachable, reason in self.pool.decisions(len(todo), batches):
+                self._decided[pair] = (reachable, reason)
+        return {
+            pair: self._decided[pair][0] if pair in self._decided else self.reach(*pair).reachable
+            for pair in pairs
+        }
+
+    def release_paths(self) -> None:
+        """The pool may now simplify the paths of the answers it gave (until then it
+        leaves the cores to planning)."""
+        if self._pool is not None:
+            self._pool.release_paths()
+
+    def paths_ready(self) -> bool:
+        """True when the reach paths are at hand (`at` and `move` would not wait)."""
+        return all(batch.done() for batch in self._batches)
+
+    def _collect(self) -> None:
+        """Waits for the pool's batches and keeps (and caches) their full results,
+        in the order the pairs were asked for, not the order they finished."""
+        self.release_paths()
+        done: dict[Pair, ReachResult] = {}
+        for batch in self._batches:
+            done.update(batch.result())
+        self._batches.clear()
+        for pair in list(self._decided):
+            result = done[pair]
+            self.cache.put(f"{self.key}/reach/{pair[0]}/{pair[1]}", result.__dict__)
+            self._reach[pair] = result
+        self._decided.clear()
 
     def pairs(self) -> list[tuple[str, str]]:
         """Every (arm, part) pair, in file order: movable parts and the top alike."""
@@ -120,10 +159,9 @@ class BenchChecks:
         return [(arm, p.id) for arm in arms for p in parts]
 
     def table(self) -> dict[tuple[str, str], ReachResult]:
-        """Every (arm, part) pair, in file order: movable parts and the top alike."""
-        pairs = self.pairs()
-        self.prefetch_reach(pairs)
-        return {pair: self.reach(*pair) for pair in pairs}
+        """Every (arm, part) pair, in file order, with its path."""
+        self.answers()
+        return {pair: self.reach(*pair) for pair in self.pairs()}
 
     def reach_site(self, arm: str, site: Site) -> ReachResult:
         """Can `arm` reach `site` from home, top-down as it reaches a work point?"""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 from ompl import base as ob
 from ompl import geometric as og
@@ -32,6 +33,15 @@ def seed_ompl(seed: int) -> None:
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)  # "approximate solution" chatter otherwise
 
 
+@dataclass
+class FoundPath:
+    """An exact path, not yet simplified: the setup that found it (None: the straight
+    segment, nothing to simplify) and its states."""
+
+    setup: og.SimpleSetup | None
+    states: list[Config]
+
+
 def plan_path(
     valid: Callable[[Config], bool],
     start: Sequence[float],
@@ -47,6 +57,22 @@ def plan_path(
     The straight segment is tried first (most queries on an open bench need nothing
     more); then RRTConnect, or RRTstar stopped at its first solution.
     """
+    found = find_path(valid, start, goal, lower, upper, planner=planner, time_limit=time_limit)
+    return None if found is None else finish_path(found)
+
+
+def find_path(
+    valid: Callable[[Config], bool],
+    start: Sequence[float],
+    goal: Sequence[float],
+    lower: Sequence[float],
+    upper: Sequence[float],
+    *,
+    planner: str = "RRTConnect",
+    time_limit: float = 1.0,
+) -> FoundPath | None:
+    """`plan_path` up to the moment a path is known to exist: whether one does is
+    decided here, `finish_path` makes it short and smooth (most of the work)."""
     n = len(start)
     space = ob.RealVectorStateSpace(n)
     bounds = ob.RealVectorBounds(n)
@@ -70,7 +96,7 @@ def plan_path(
     if not (si.isValid(a) and si.isValid(b)):
         return None
     if si.checkMotion(a, b):
-        return _densify([list(map(float, start)), list(map(float, goal))])
+        return FoundPath(None, [list(map(float, start)), list(map(float, goal))])
     ss.setStartAndGoalStates(a, b)
     if planner == "RRTstar":
         rrt = og.RRTstar(si)
@@ -87,7 +113,23 @@ def plan_path(
     ss.solve(time_limit)
     if not ss.haveExactSolutionPath():
         return None
+    return FoundPath(ss, [])
+
+
+def finish_path(found: FoundPath, seed: int | None = None) -> list[Config]:
+    """The path of `found`, simplified and densified; the validity checker must still
+    see the world as `find_path` did (the other arm at home).
+
+    The simplifier may draw on OMPL's global seed sequence (for samplers it makes as
+    it goes): with `seed`, the sequence restarts here, so the path does not depend
+    on what ran between `find_path` and this call."""
+    ss = found.setup
+    if ss is None:
+        return _densify(found.states)
+    if seed is not None:
+        seed_ompl(seed)
     path = ss.getSolutionPath()
+    n = ss.getSpaceInformation().getStateDimension()
     # Simplified to convergence rather than for a time budget: a timed simplifier
     # returns a different path on a busier machine, and checks now run on every core.
     ss.getPathSimplifier().simplifyMax(path)

@@ -19,9 +19,10 @@ import numpy as np
 
 from planner.feasibility._bullet import pb
 from planner.feasibility.arms import ARMS, HOME
-from planner.feasibility.path_planner import plan_path, seed_ompl
+from planner.feasibility.path_planner import FoundPath, find_path, finish_path, plan_path, seed_ompl
 from planner.feasibility.robot import BaxterBody, load_robot
 from planner.feasibility.scene import PartBox, Scene, Site, build_scene
+from planner.feasibility.workspace import wrist_bound
 from planner.scenario_model import Scenario
 
 Reason = Literal["ok", "no IK", "IK in collision", "no path"]
@@ -47,6 +48,18 @@ GOALS_WANTED = 3  # collision-free IK goals to try paths to
 class _IkSearch:
     accurate: bool = False  # some IK solution met the pose, colliding or not
     goals: list[list[float]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class ReachDecision:
+    """Whether an arm reaches a part, before its path is simplified; `found` lives
+    in the process that decided (OMPL objects do not cross processes)."""
+
+    reachable: bool
+    reason: Reason
+    seconds: float
+    found: FoundPath | None
+    simplify_seed: int = 0
 
 
 @dataclass(frozen=True)
@@ -77,6 +90,7 @@ class World:
         self.scene: Scene = build_scene(self.client, scenario)
         self._body_part = {b: pid for pid, b in self.scene.bodies.items()}
         self._reach_radius = {a: self._arm_length(a) for a in ARMS}
+        self._wrist_bound = {a: wrist_bound(self.robot, a, POS_TOL, ORN_TOL) for a in ARMS}
         self._moving = self.robot.arm_links["left"] | self.robot.arm_links["right"]
         self._ik_limits = self._joint_limits()
         self._ignore_static_contacts()
@@ -133,6 +147,11 @@ class World:
     def check_reach(self, arm: str, part: str, point: str | None = None) -> ReachResult:
         """From home to the part's work point, or with `point` to that connection
         point's site on the part's own footprint (`Site`)."""
+        return self.finish_reach(self.decide_reach(arm, part, point))
+
+    def decide_reach(self, arm: str, part: str, point: str | None = None) -> ReachDecision:
+        """The answer of `check_reach`; its path is made by `finish_reach`, which may
+        come after other queries (the simplifier's random numbers are its own)."""
         start = time.perf_counter()
         self.robot.go_home()
         box = self.scene.parts[part]
@@ -143,7 +162,7 @@ class World:
         # Goals come one at a time: the first one usually has a path, and IK restarts
         # cost more than a path query.
         for goal in self._ik_goals(arm, box, rng, search, point):
-            path = plan_path(
+            found = find_path(
                 lambda q: self.is_valid(arm, q, part),
                 HOME[arm],
                 goal,
@@ -152,14 +171,26 @@ class World:
                 planner=self.planner,
                 time_limit=self.time_limit,
             )
-            if path is not None:
+            if found is not None:
                 self.robot.go_home()
-                return ReachResult(True, "ok", time.perf_counter() - start, path)
+                seed = zlib.crc32(f"{self.seed}/{name}/simplify".encode())
+                return ReachDecision(True, "ok", time.perf_counter() - start, found, seed)
         self.robot.go_home()
         reason: Reason = (
             "no path" if search.goals else "IK in collision" if search.accurate else "no IK"
         )
-        return ReachResult(False, reason, time.perf_counter() - start, None)
+        return ReachDecision(False, reason, time.perf_counter() - start, None)
+
+    def finish_reach(self, decision: ReachDecision) -> ReachResult:
+        """The decided answer with its path (from home to the grasp)."""
+        if decision.found is None:
+            return ReachResult(decision.reachable, decision.reason, decision.seconds, None)
+        start = time.perf_counter()
+        self.robot.go_home()  # the world the path was found in
+        path = finish_path(decision.found, decision.simplify_seed)
+        self.robot.go_home()
+        seconds = decision.seconds + time.perf_counter() - start
+        return ReachResult(decision.reachable, decision.reason, seconds, path)
 
     def move(
         self, arm: str, start: list[float], goal: list[float], parts: frozenset[str]
@@ -229,6 +260,8 @@ class World:
         poses = self.grasp_poses(box, arm, point)
         if min(math.dist(shoulder, p) for p, _ in poses) > self._reach_radius[arm]:
             return  # farther than the arm stretched straight: skip IK
+        if all(self._wrist_bound[arm].out_of_reach(p, o) for p, o in poses):
+            return  # no wrist position can serve the grasp: skip IK (workspace.py)
         lo, hi = np.array(self.robot.lower[arm]), np.array(self.robot.upper[arm])
         best = math.inf
         for attempt in range(IK_ATTEMPTS):
