@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -69,3 +70,10 @@ def tandem(
         input=stdin,
         timeout=300,
     )
+
+
+def free_port() -> int:
+    """A loopback port nothing listens on (for a dashboard started by a test)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])

@@ -10,7 +10,6 @@ from __future__ import annotations
 import os
 import shutil
 import signal
-import socket
 import sqlite3
 import subprocess
 import tempfile
@@ -23,7 +22,7 @@ from app.execution import Executor
 from app.outcomes import ExpectedSource
 from app.session_db import StoreError
 from app.store import DB_NAME, SessionStore
-from tests.plan_fixtures import ROOT, default_plan, tandem_command
+from tests.plan_fixtures import ROOT, default_plan, free_port, tandem_command
 
 
 def unprivileged(command: list[str]) -> list[str]:
@@ -90,12 +89,18 @@ def test_a_corrupt_database(folder: Path) -> None:
         one_line(run(*args, data=data), str(data / DB_NAME), "move it away")
 
 
-def test_a_read_only_database_is_read_but_never_executed_into(with_session: Path) -> None:
-    db = with_session / DB_NAME
+def make_read_only(data: Path) -> None:
+    """The data folder and its database as a user may read but not write them: the
+    write-ahead log folded in first, so the database is whole without it."""
+    db = data / DB_NAME
     with sqlite3.connect(db) as conn:
         conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-    for p in (db, with_session):
+    for p in (db, data):
         p.chmod(0o555 if p.is_dir() else 0o444)
+
+
+def test_a_read_only_database_is_read_but_never_executed_into(with_session: Path) -> None:
+    make_read_only(with_session)
     listed = run("sessions", "list", data=with_session)
     assert listed.returncode == 0, listed.stderr
     assert "goal" in listed.stdout
@@ -145,14 +150,8 @@ def test_a_write_failing_mid_session_stops_it_and_keeps_what_was_committed(
 
 
 def test_the_dashboard_opens_a_read_only_database_for_review_only(with_session: Path) -> None:
-    db = with_session / DB_NAME
-    with sqlite3.connect(db) as conn:
-        conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-    for p in (db, with_session):
-        p.chmod(0o555 if p.is_dir() else 0o444)
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    make_read_only(with_session)
+    port = free_port()
     env = {**os.environ, "TANDEM_DATA_DIR": str(with_session)}
     process = subprocess.Popen(
         unprivileged([*tandem_command(), "dashboard", "--port", str(port)]),
