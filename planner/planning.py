@@ -14,7 +14,7 @@ from planner import conversation, diagnosis
 from planner.hcp import INLINE_SOLVE_S, ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.plan import Plan, build_plan
 from planner.scenario import Scenario
-from planner.vocabulary import Attach, State
+from planner.vocabulary import Attach, Hands, State
 
 if TYPE_CHECKING:
     from planner.feasibility.checks import BenchChecks
@@ -223,8 +223,15 @@ def _motion_prefetch(
     machine) and the reach paths are ready (a motion starts where a reach path ends,
     and planning must never wait for one)."""
     from planner.feasibility.plan_motions import endpoints
+    from planner.feasibility.scene import site_of
 
     backlog: list[DagNode] = []
+
+    def known(action: Attach, state: State) -> bool:
+        # An attach ends at a slot's site: only where that reach is already answered,
+        # since `endpoints` would otherwise check it here, in the planning loop.
+        site = site_of(Hands.of(state).attached, action.onto, action.slot)
+        return checks.site_known(action.arm, site)
 
     def prefetch(planned: list[DagNode]) -> None:
         backlog.extend(n for n in planned if isinstance(n.action, Attach))
@@ -233,7 +240,8 @@ def _motion_prefetch(
         moves = [
             endpoints(n.action, sorted(n.state), checks)
             for n in backlog
-            if isinstance(n.action, Attach)  # not replanned after a dead end
+            # (not an attach any more: replanned after a dead end)
+            if isinstance(n.action, Attach) and known(n.action, n.state)
         ]
         backlog.clear()
         checks.prefetch_moves((arm, a, b) for arm, a, b in moves if a is not None and b)

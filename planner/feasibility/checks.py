@@ -163,6 +163,15 @@ class BenchChecks:
         self.answers()
         return {pair: self.reach(*pair) for pair in self.pairs()}
 
+    def site_known(self, arm: str, site: Site) -> bool:
+        """Whether `reach_site(arm, site)` is answered without a check (known or cached)."""
+        if (arm, site) in self._site_reach:
+            return True
+        stored = self.cache.get(f"{self.key}/reach/{arm}/{site}")
+        if stored is not None:
+            self._site_reach[(arm, site)] = ReachResult(**stored)
+        return stored is not None
+
     def reach_site(self, arm: str, site: Site) -> ReachResult:
         """Can `arm` reach `site` from home, top-down as it reaches a work point?"""
         if (arm, site) in self._site_reach:
