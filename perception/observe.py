@@ -39,15 +39,11 @@ class BenchObserver:
         self.bench_top_z = bench_top_z
         self.camera: CameraPose | None = None
 
-    def intrinsics_for(self, frame: Frame) -> CameraIntrinsics:
-        """The intrinsics at the frame's size (a source may deliver another size)."""
-        h, w = frame.image.shape[:2]
-        if (w, h) != (self.intrinsics.width, self.intrinsics.height):
-            return self.intrinsics.scaled(w, h)
-        return self.intrinsics
-
     def observe(self, frame: Frame) -> FrameObservation:
-        intrinsics = self.intrinsics_for(frame)
+        intrinsics = self.intrinsics
+        h, w = frame.image.shape[:2]
+        if (w, h) != (intrinsics.width, intrinsics.height):
+            intrinsics = intrinsics.scaled(w, h)
         detections = decode_codes(frame.image)
         camera = locate_camera(
             detections, self.references, self.marker_size_m, self.bench_top_z, intrinsics

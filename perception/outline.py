@@ -1,9 +1,10 @@
 """A part's top-face outline from one frame: circle, square or triangle.
 
 The code lies on the part's top face, or on a card flush with it beside the face
-(a foot's face is smaller than a code), so the tracked code gives the face's
-height, centre and turn. The frame is warped onto that plane: a top-down patch
-at ~1 mm a pixel around the face, whatever the camera's angle. The face is the
+(a foot's face is smaller than a code), so the code's four corners in the frame
+give the face's plane, and the layout where the face lies on it. The frame is
+warped onto that plane: a top-down patch at ~1 mm a pixel around the face,
+whatever the camera's angle. The face is the
 region around its centre whose colour is nearer the centre's than the bench's
 around it (the code's card masked out); its convex outline is then compared with
 the ideal shapes by how much of its smallest enclosing rectangle and triangle it
@@ -20,10 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from perception.frames import Image
-from perception.intrinsics import CameraIntrinsics
-from perception.pose import CameraPose
 
-Vec3 = tuple[float, float, float]
 Points = npt.NDArray[np.float32]
 OUTLINES = ("circle", "square", "triangle")
 
@@ -43,15 +41,15 @@ _MIN_CONTRAST = 18.0  # grey levels between the face and the bench around it
 
 @dataclass(frozen=True)
 class FaceView:
-    """Where a part's top face is: its centre in the bench frame (at the face's height),
-    its turn about z, the footprint of its box (along its own x, y), and where its
-    code's card lies on that plane (offset from the centre in its axes, side)."""
+    """Where a part's top face lies on its code's plane: its centre from the code's
+    centre in the code's axes (x along the code's top edge, y up it), its box's
+    footprint along those axes, the code's printed side (`marker_size`) and the
+    side of its card, quiet zone included (masked: not part of the face)."""
 
-    centre: Vec3
-    yaw: float
+    offset: tuple[float, float]
     footprint: tuple[float, float]
-    code_offset: tuple[float, float]
-    code_side: float
+    marker_size: float
+    card_side: float
 
 
 @dataclass(frozen=True)
@@ -68,42 +66,35 @@ class OutlineReading:
     corners: int = 0
 
 
-def _project(points: npt.NDArray[np.float64], camera: CameraPose,
-             intrinsics: CameraIntrinsics) -> npt.NDArray[np.float64]:
-    r_cam = camera.rotation.T
-    rvec, _ = cv2.Rodrigues(r_cam)
-    tvec = -r_cam @ camera.position
-    pixels, _ = cv2.projectPoints(points, rvec, tvec, intrinsics.matrix, intrinsics.dist_coeffs)
-    return np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-
-
-def face_patch(image: Image, face: FaceView, camera: CameraPose,
-               intrinsics: CameraIntrinsics) -> tuple[Image, float] | None:
+def face_patch(image: Image, face: FaceView,
+               corners: npt.NDArray[np.float64]) -> tuple[Image, float] | None:
     """The frame warped onto the face's plane around its centre, the part's +x to the
-    right and +y up, and its scale (pixels a metre); None when the face is behind
-    the camera or out of the frame."""
-    width = max(face.footprint)
-    half = _MARGIN * width
+    right and +y up, and its scale (pixels a metre); None when the patch leaves the
+    frame. The plane comes from the code's four corners in this frame (top-left
+    first, as decoded): exact for this frame whatever the camera's pose, where a
+    tracked position and a kept camera pose lag a camera that moved."""
+    h = face.marker_size / 2
+    code = np.array([[-h, h], [h, h], [h, -h], [-h, -h]], dtype=np.float32)
+    to_image = cv2.getPerspectiveTransform(code, corners.astype(np.float32))
+    half = _MARGIN * max(face.footprint)
     scale = min(1000.0, _PATCH_PX / (2 * half))
     n = round(2 * half * scale)
-    c, s = math.cos(face.yaw), math.sin(face.yaw)
-    local = np.array([[-half, half], [half, half], [half, -half], [-half, -half]])
-    bench = np.array(
-        [[face.centre[0] + c * a - s * b, face.centre[1] + s * a + c * b, face.centre[2]]
-         for a, b in local]
+    ox, oy = face.offset
+    # Patch pixels (u, v) to metres on the plane: x = ox + (u - n/2)/s, y = oy - (v - n/2)/s.
+    to_plane = np.array(
+        [[1 / scale, 0, ox - half], [0, -1 / scale, oy + half], [0, 0, 1]], dtype=np.float64
     )
-    cam_z = (camera.rotation.T @ (bench - camera.position).T)[2]
-    if np.any(cam_z <= 0.05):
+    patch_to_image = to_image @ to_plane
+    edges = np.array([[0, 0, 1], [n, 0, 1], [n, n, 1], [0, n, 1]], dtype=np.float64).T
+    seen = patch_to_image @ edges
+    if np.any(seen[2] <= 0):
         return None
-    pixels = _project(bench, camera, intrinsics)
-    h, w = image.shape[:2]
-    if pixels[:, 0].min() < 0 or pixels[:, 1].min() < 0 or pixels[:, 0].max() >= w \
-            or pixels[:, 1].max() >= h:
+    pixels = seen[:2] / seen[2]
+    rows, cols = image.shape[:2]
+    if pixels.min() < 0 or pixels[0].max() >= cols or pixels[1].max() >= rows:
         return None
-    corners = np.array([[0, 0], [n, 0], [n, n], [0, n]], dtype=np.float32)
-    to_image = cv2.getPerspectiveTransform(corners, pixels.astype(np.float32))
     patch = cv2.warpPerspective(
-        image, to_image, (n, n), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+        image, patch_to_image, (n, n), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
         borderMode=cv2.BORDER_REPLICATE,
     )
     return np.ascontiguousarray(patch), scale
@@ -112,9 +103,9 @@ def face_patch(image: Image, face: FaceView, camera: CameraPose,
 def _card_mask(n: int, scale: float, face: FaceView) -> npt.NDArray[np.uint8]:
     """The code's card (and a thin margin) on the patch: not part of the face."""
     mask = np.zeros((n, n), np.uint8)
-    dx, dy = face.code_offset
-    half = face.code_side / 2 + _CARD_GAP_M
-    centre = (n / 2 + dx * scale, n / 2 - dy * scale)
+    ox, oy = face.offset  # the card is centred on the code, -offset from the face
+    half = face.card_side / 2 + _CARD_GAP_M
+    centre = (n / 2 - ox * scale, n / 2 + oy * scale)
     box = cv2.boxPoints((centre, (2 * half * scale, 2 * half * scale), 0.0))
     cv2.fillConvexPoly(mask, np.round(box).astype(np.int32), 255)
     return mask
@@ -142,20 +133,39 @@ def segment_face(patch: Image, scale: float, face: FaceView) -> tuple[Points | N
     if contrast < _MIN_CONTRAST:
         return None, "the face does not stand out from the bench"
     distance = np.linalg.norm(colour - seed, axis=2)
-    inside = ((distance < contrast / 2) & ~card).astype(np.uint8)
-    inside = cv2.morphologyEx(inside, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
-    count, labels = cv2.connectedComponents(inside, connectivity=8)
-    if count < 2:
+    region = _component(((distance < contrast / 2) & ~card).astype(np.uint8), seed_zone)
+    if region is None:
         return None, "no face at the code's part"
+    # A tall part's sides lie beside its face on the patch and, lit almost like the
+    # face, join it. A second, Otsu, cut inside the region parts them, kept when
+    # what it cuts off holds a blob thicker than a blurred edge (a side, not a rim).
+    values = distance[region > 0]
+    cut, _ = cv2.threshold(np.clip(values, 0, 255).astype(np.uint8).reshape(-1, 1), 0,
+                           255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)
+    split = _component(((distance <= cut) & (region > 0)).astype(np.uint8), seed_zone)
+    if split is not None:
+        cut_off = ((region > 0) & (split == 0)).astype(np.uint8)
+        thick = cv2.morphologyEx(cut_off, cv2.MORPH_OPEN, np.ones((5, 5), np.uint8))
+        if thick.sum() > 0.1 * region.sum():
+            region = split
+    contours, _ = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    outline = max(contours, key=cv2.contourArea)
+    return outline.astype(np.float32), ""
+
+
+def _component(mask: npt.NDArray[np.uint8],
+               seed_zone: npt.NDArray[np.bool_]) -> npt.NDArray[np.uint8] | None:
+    """The opened mask's connected part that covers most of the seed zone."""
+    opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    count, labels = cv2.connectedComponents(opened, connectivity=8)
+    if count < 2:
+        return None
     overlap = np.bincount(labels[seed_zone], minlength=count)
     overlap[0] = 0
     label = int(overlap.argmax())
     if overlap[label] == 0:
-        return None, "no face at the code's part"
-    region = (labels == label).astype(np.uint8)
-    contours, _ = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-    outline = max(contours, key=cv2.contourArea)
-    return outline.astype(np.float32), ""
+        return None
+    return np.asarray(labels == label, dtype=np.uint8)
 
 
 def _expected_areas(footprint: tuple[float, float]) -> dict[str, float]:
@@ -203,10 +213,10 @@ def classify_outline(outline: Points, scale: float,
     )
 
 
-def read_outline(image: Image, face: FaceView, camera: CameraPose,
-                 intrinsics: CameraIntrinsics) -> OutlineReading:
-    """The outline of the face `face` describes, in one frame."""
-    warped = face_patch(image, face, camera, intrinsics)
+def read_outline(image: Image, face: FaceView,
+                 corners: npt.NDArray[np.float64]) -> OutlineReading:
+    """The outline of the face beside the code whose corners are `corners`."""
+    warped = face_patch(image, face, corners)
     if warped is None:
         return OutlineReading(None, 0.0, "the face is out of the frame")
     patch, scale = warped

@@ -1,8 +1,8 @@
 """Each part's top-face outline across frames: a vote over the recent looks.
 
 A part whose layout leaves its outline open (`PartShape.outline_unknown`) is
-looked at in every frame that sees its code, at the face the code's track
-places (`perception.outline`); one frame's reading may fail (blur, a hand, the
+looked at in every frame that decodes its code, beside the code as the layout
+says (`perception.outline`); one frame's reading may fail (blur, a hand, the
 face under another part's card), so the estimate is the outline most of the
 last `window` looks read, its confidence the share of the looks that read it.
 """
@@ -10,18 +10,14 @@ last `window` looks read, its confidence the share of the looks that read it.
 from __future__ import annotations
 
 from collections import Counter, deque
-from collections.abc import Mapping
 from functools import cache
 
 from perception.codes_image import QUIET_ZONE_MODULES, modules_across
 from perception.frames import Image
-from perception.intrinsics import CameraIntrinsics
 from perception.layout import BenchLayout
-from perception.markers import encode_part
+from perception.markers import PartCode, encode_part
 from perception.observe import FrameObservation
 from perception.outline import FaceView, OutlineEstimate, OutlineReading, read_outline
-from perception.tracking import Track
-from perception.world import part_centre
 
 
 @cache
@@ -36,36 +32,32 @@ class OutlineWatch:
         self.layout = layout
         self.window = window
         self._looks: dict[str, deque[str | None]] = {}
-        self.last_readings: dict[str, OutlineReading] = {}
+        self.readings: dict[str, OutlineReading] = {}  # this frame's looks
 
-    def face(self, track: Track) -> FaceView | None:
-        """Where the tracked part's top face is (None: not a part to look at)."""
-        shape = self.layout.parts.get(track.part_id)
+    def face(self, part_id: str, marker_id: int) -> FaceView | None:
+        """Where the part's top face lies from its code (None: not a part to look at)."""
+        shape = self.layout.parts.get(part_id)
         if shape is None or not shape.outline_unknown:
             return None
-        x, y, _ = part_centre(track, self.layout)
-        side = _card_side(track.part_id, track.marker_id, self.layout.marker_size_m)
+        dx, dy = shape.code_offset
+        marker = self.layout.marker_size_m
         return FaceView(
-            (x, y, track.position[2]), track.yaw, (shape.size[0], shape.size[1]),
-            shape.code_offset, side,
+            (-dx, -dy), (shape.size[0], shape.size[1]), marker,
+            _card_side(part_id, marker_id, marker),
         )
 
-    def update(
-        self, image: Image, observation: FrameObservation, tracks: Mapping[str, Track],
-        intrinsics: CameraIntrinsics,
-    ) -> dict[str, OutlineEstimate]:
-        camera = observation.camera
-        for part_id, track in tracks.items():
-            # Only a code seen in this frame puts the face where the frame shows it.
-            seen_now = track.known and track.last_seen_index == observation.frame_index
-            if camera is None or not seen_now:
+    def update(self, image: Image, observation: FrameObservation) -> dict[str, OutlineEstimate]:
+        self.readings = {}
+        for detection in observation.detections:
+            code = detection.code
+            if not isinstance(code, PartCode):
                 continue
-            face = self.face(track)
+            face = self.face(code.part_id, code.marker_id)
             if face is None:
                 continue
-            reading = read_outline(image, face, camera, intrinsics)
-            self.last_readings[part_id] = reading
-            looks = self._looks.setdefault(part_id, deque(maxlen=self.window))
+            reading = read_outline(image, face, detection.corners)
+            self.readings[code.part_id] = reading
+            looks = self._looks.setdefault(code.part_id, deque(maxlen=self.window))
             looks.append(reading.shape)
         return {part_id: self.estimate(part_id) for part_id in self._looks}
 

@@ -39,9 +39,7 @@ class BenchPerception:
         observation = self.observer.observe(frame)
         tracks = self.tracker.update(observation)
         world = self.estimator.update(tracks, frame.index, frame.timestamp)
-        outlines = self.outlines.update(
-            frame.image, observation, tracks, self.observer.intrinsics_for(frame)
-        )
+        outlines = self.outlines.update(frame.image, observation)
         if outlines:
             parts = {
                 pid: replace(est, outline=outlines[pid]) if pid in outlines else est

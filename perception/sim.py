@@ -41,6 +41,7 @@ vn 0 0 1
 f 1/1/1 2/2/1 3/3/1
 f 1/1/1 3/3/1 4/4/1
 """
+_CIRCLE_SIDES = 48
 _LIFT_CODE = 0.0008  # the code floats this far over its face, against z-fighting
 
 
@@ -209,19 +210,21 @@ class SimulatedCamera:
         colour = [*part.colour, 1.0]
         w, d, h = part.size
         if part.profile == "circle":
-            shape = pb.createVisualShape(
-                pb.GEOM_CYLINDER, radius=min(w, d) / 2, length=h, rgbaColor=colour,
-                physicsClientId=self._client,
+            # A many-sided prism, not GEOM_CYLINDER: the renderer shades that one's
+            # flat top like a dome.
+            corners = tuple(
+                (min(w, d) / 2 * math.cos(a), min(w, d) / 2 * math.sin(a))
+                for a in np.linspace(0, 2 * math.pi, _CIRCLE_SIDES, endpoint=False)
             )
         elif part.profile == "triangle":
-            mesh = self._dir / f"prism-{w:.4f}-{d:.4f}-{h:.4f}.obj"
-            mesh.write_text(prism_obj(triangle_corners(w, d), h))
-            shape = pb.createVisualShape(
-                pb.GEOM_MESH, fileName=str(mesh), rgbaColor=colour,
-                physicsClientId=self._client,
-            )
+            corners = triangle_corners(w, d)
         else:
             return self._box(part.size, (*part.colour, 1.0))
+        mesh = self._dir / f"{part.profile}-{w:.4f}-{d:.4f}-{h:.4f}.obj"
+        mesh.write_text(prism_obj(corners, h))
+        shape = pb.createVisualShape(
+            pb.GEOM_MESH, fileName=str(mesh), rgbaColor=colour, physicsClientId=self._client,
+        )
         return int(pb.createMultiBody(baseVisualShapeIndex=shape, physicsClientId=self._client))
 
     def _build(self) -> None:
