@@ -31,7 +31,7 @@ from app.simulated_human import SimulatedHuman
 from app.surprises import Surprise
 from perception.frames import Frame, FrameSource
 from perception.pipeline import BenchPerception
-from perception.world import Placement, Where, WorldEstimate
+from perception.world import PartEstimate, Placement, Where, WorldEstimate
 from planner.vocabulary import (
     Action,
     SenseHumanAttachingWhere,
@@ -173,6 +173,14 @@ def where_words(p: Placement) -> str:
         case Where.ATTACHED:
             return f"attached to {p.attached_to} at {p.slot}"
     return "out of sight"
+
+
+def belief_words(p: PartEstimate) -> str:
+    """Where a part is, and for one whose shape is open what its face looks like."""
+    words = where_words(p.placement)
+    if p.outline is not None and p.outline.shape is not None:
+        words += f", looks {p.outline.shape} ({p.outline.confidence:.0%})"
+    return words
 
 
 def placements(world: WorldEstimate) -> dict[str, str]:

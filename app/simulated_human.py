@@ -126,6 +126,9 @@ class SimulatedWorld:
             pid: shape.outlines[0] for pid, shape in layout.parts.items() if shape.outlines
         }
         self._shown: dict[str, tuple[Vec3, float]] = {}
+        if camera is not None:  # a camera used before may still show a decided shape
+            for pid, outline in self.outlines.items():
+                camera.reshape(pid, outline)
         self.sync()
 
     # --- facts -----------------------------------------------------------------

@@ -4,11 +4,12 @@ The code lies on the part's top face, or on a card flush with it beside the face
 (a foot's face is smaller than a code), so the code's four corners in the frame
 give the face's plane, and the layout where the face lies on it. The frame is
 warped onto that plane: a top-down patch at ~1 mm a pixel around the face,
-whatever the camera's angle. The face is the
-region around its centre whose colour is nearer the centre's than the bench's
-around it (the code's card masked out); its convex outline is then compared with
-the ideal shapes by how much of its smallest enclosing rectangle and triangle it
-fills, how round it is (circularity), and how many corners approxPolyDP keeps.
+whatever the camera's angle. The face is the region around its centre whose
+colour is nearer the centre's than the bench's around it (the code's card masked
+out; a tall part's sides cut off by a second, Otsu, threshold). Its convex
+outline goes to the nearest ideal shape by how round it is (circularity) and how
+much of its smallest enclosing rectangle and triangle it fills; the corners
+approxPolyDP keeps break near ties.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from app.camera_bench import bench_layout, sim_scene
-from app.camera_source import CameraSource, outcome_of
+from app.camera_source import CameraSource, belief_words, outcome_of
 from app.execution import Executor
 from app.outcomes import FallbackSource, RandomSource
 from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
@@ -122,6 +122,8 @@ def test_a_click_for_another_shape_swaps_the_part_and_the_camera_sees_it(
         # Options without the shape seen: no answer, and the reason says what was seen.
         reading = outcome_of(node.action, obs.world, [truth])
         assert reading.label is None and other in reading.reason
+        # What the Live camera panel says of the part.
+        assert f"looks {other} (" in belief_words(obs.world.parts["foot3"])
     finally:
         run.close()
 
