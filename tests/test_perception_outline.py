@@ -4,13 +4,16 @@ QR decoding and tracking, real OpenCV contours; truth known from the scene."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import numpy as np
 import pytest
 
 from perception.outline import OUTLINES, classify_outline
-from perception.outline_bench import HARD, PARTS, score_outlines
+from perception.outline_bench import HARD, PARTS, outline_bench, score_outlines
+from perception.pipeline import BenchPerception
+from perception.sim import SimulatedCamera
 
 BENCHES = 4
 FRAMES = 50  # per bench: 200 frames in all
@@ -57,3 +60,22 @@ def test_outlines_right_in_200_degraded_frames() -> None:
     assert legs >= 0.95
     assert score.voted >= 0.9 * len(PARTS) * BENCHES
     assert not score.voted_wrong
+
+
+def test_a_face_like_the_bench_reads_nothing() -> None:
+    """No guess where the face cannot be told: the camera then has no answer."""
+    layout, scene, truth = outline_bench(0)
+    bench_colour = (0.45, 0.36, 0.28)  # the simulated bench top's
+    parts = tuple(
+        replace(p, colour=bench_colour) if p.part_id == "foot1" else p for p in scene.parts
+    )
+    with SimulatedCamera(replace(scene, parts=parts), size=(640, 640)) as camera:
+        perception = BenchPerception(camera.intrinsics, layout)
+        for _ in range(3):
+            world = perception.process(camera.read()).world
+            looks = perception.outlines.readings
+            assert looks["foot1"].shape is None
+            assert looks["foot1"].reason == "the face does not stand out from the bench"
+            assert looks["foot3"].shape == truth["foot3"]
+        estimate = world.parts["foot1"].outline
+        assert estimate is not None and estimate.shape is None and estimate.looks == 3
