@@ -2,15 +2,15 @@
 drawn by a simulated camera that perception then watches.
 
 `SimulatedWorld` holds the physical facts (which arm holds which part, what the
-human holds, what is attached where, what shape each leg's and foot's face really
-has) and places the parts as the dashboard's
-world model does (`app.bench_world.place_parts`), moving them in the camera's
-scene. `SimulatedHuman` chooses, seeded, what the human does at a sensing node,
+human holds, what is attached where, what shape each leg's and foot's face
+really has) and places the parts as the dashboard's world model does
+(`app.bench_world.place_parts`), moving them in the camera's scene.
+`SimulatedHuman` chooses, seeded, what the human does at a sensing node,
 consistently with the plan, and does it in the world; it never answers a node:
 the camera has to see what it did. It also decides, seeded, what a part whose
 shape the scenario leaves open really is, and the camera draws it so: the
-camera has to see that too. As an executor listener it applies the
-robot's actions and complies with what the human agreed to at a question.
+camera has to see that too. As an executor listener it applies the robot's
+actions and complies with what the human agreed to at a question.
 """
 
 from __future__ import annotations

@@ -45,16 +45,12 @@ _CIRCLE_SIDES = 48
 _LIFT_CODE = 0.0008  # the code floats this far over its face, against z-fighting
 
 
-# The solids a part's outline draws; any other outline is drawn as a box.
-PROFILES = ("square", "circle", "triangle")
-
-
 @dataclass(frozen=True)
 class SimPart:
     """A part in its box: centre position, yaw about z, size (x, y, z), and the payload
     of the code on its top face (None: no code). `profile` is its top face's outline
     in that box: "square" fills it, "circle" a cylinder across its narrower side,
-    "triangle" an equilateral prism (`triangle_corners`)."""
+    "triangle" an equilateral prism (`triangle_corners`); any other word a box."""
 
     part_id: str
     size: Vec3
