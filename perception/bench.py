@@ -110,7 +110,7 @@ def main() -> None:
     print()
     print("Outlines of parts' top faces (4 and 8 cm feet, 20 cm legs; 2 benches x 15 frames):"
           " looks right / looks")
-    print(f"{'size':>10} {'frames':>9} {'feet':>15} {'legs':>15} {'ms a look':>10}")
+    print(f"{'size':>10} {'render':>9} {'feet':>15} {'legs':>15} {'ms a look':>10}")
     for size in ((640, 640), DEFAULT_SIZE):
         for label, degradation in (("clean", Degradation()), ("degraded", HARD)):
             score = score_outlines(2, 15, size, degradation)
