@@ -5,11 +5,13 @@ Perception knows nothing of scenario files; this module computes, from a planner
 the regions' extents, the bench's size and height, each part's box (from
 `planner.feasibility.scene.part_boxes`, so the camera sees the parts where the
 planner and the dashboard put them), its connection slots relative to its centre,
-where its code sits, and the code's payload.
+where its code sits, the code's payload, and what a leg's or a foot's top face
+may look like (its shape options: the camera tells them apart when several).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 from perception.codes_image import QUIET_ZONE_MODULES, modules_across
@@ -35,6 +37,7 @@ COLOURS = {
     "other": (0.75, 0.75, 0.70),
 }
 _CLEARANCE_M = 0.005  # between a code and the code of a part standing on a slot
+_CARD_GAP_M = 0.01  # between a face the camera reads and its code's card
 
 
 def marker_ids(scenario: Scenario) -> dict[str, int]:
@@ -69,7 +72,9 @@ def slot_offsets(box: PartBox) -> dict[str, tuple[float, float]]:
     return {name: (x - box.x, y - box.y) for name, (x, y) in box.sites().items()}
 
 
-def code_offset(box: PartBox, own_side: float, largest_side: float) -> tuple[float, float]:
+def code_offset(
+    box: PartBox, own_side: float, largest_side: float, face_in_view: bool = False
+) -> tuple[float, float]:
     """Where the part's code sits on its top face, from the centre, in its own axes.
 
     A code under a part standing on a slot is hidden, and a hidden part becomes
@@ -78,12 +83,20 @@ def code_offset(box: PartBox, own_side: float, largest_side: float) -> tuple[flo
       width (its own half and the largest other half) away, so the code of a
       part standing on the slot does not cover it;
     - slots along the long side (a top's ends): beside their line, at the edge of
-      the face towards the human, as far from what stands on them as it fits.
+      the face towards the human, as far from what stands on them as it fits;
+    - no slots, and a face the camera must see (`face_in_view`: its shape is open):
+      on a card flush with the face, beside it across its long side, towards -y
+      (-x for a part longer along y). A foot's face is smaller than a code; and
+      legs carry theirs along their long side, so a foot's card on a leg never
+      covers the leg's code.
     """
     slots = slot_offsets(box)
-    if not slots:
-        return (0.0, 0.0)
     long_x = box.size[0] >= box.size[1]
+    if not slots:
+        if not face_in_view:
+            return (0.0, 0.0)
+        beside = (box.size[1] if long_x else box.size[0]) / 2 + _CARD_GAP_M + own_side / 2
+        return (0.0, -beside) if long_x else (-beside, 0.0)
     if all(abs(dx) < 1e-9 and abs(dy) < 1e-9 for dx, dy in slots.values()):
         along = own_side / 2 + largest_side / 2 + _CLEARANCE_M
         return (along, 0.0) if long_x else (0.0, along)
@@ -96,12 +109,22 @@ def _sides(scenario: Scenario, marker_size_m: float) -> dict[str, float]:
     return {pid: code_side(text, marker_size_m) for pid, text in payloads(scenario).items()}
 
 
+def outlines(scenario: Scenario) -> dict[str, tuple[str, ...]]:
+    """What each leg's and foot's top face may look like: its shape options."""
+    return {p.id: tuple(p.shape_options) for p in scenario.parts if p.kind in ("leg", "foot")}
+
+
 def part_shapes(scenario: Scenario, marker_size_m: float) -> dict[str, PartShape]:
     boxes = part_boxes(scenario)
     sides = _sides(scenario, marker_size_m)
     largest = max(sides.values())
+    faces = outlines(scenario)
     return {
-        pid: PartShape(box.size, slot_offsets(box), code_offset(box, sides[pid], largest))
+        pid: PartShape(
+            box.size, slot_offsets(box),
+            code_offset(box, sides[pid], largest, len(faces.get(pid, ())) > 1),
+            faces.get(pid, ()),
+        )
         for pid, box in boxes.items()
     }
 
@@ -142,8 +165,13 @@ def bench_layout(scenario: Scenario, marker_size_m: float | None = None) -> Benc
     )
 
 
-def sim_scene(scenario: Scenario, marker_size_m: float | None = None) -> SimScene:
-    """The parts resting where the scenario puts them, each with its own code."""
+def sim_scene(
+    scenario: Scenario, marker_size_m: float | None = None,
+    truth: Mapping[str, str] | None = None,
+) -> SimScene:
+    """The parts resting where the scenario puts them, each with its own code, and a
+    leg or a foot drawn with its shape: `truth` for one the scenario leaves open
+    (else its first option; the simulated world may reshape it later)."""
     from perception.sim import SimPart, SimScene
 
     if marker_size_m is None:
@@ -153,6 +181,8 @@ def sim_scene(scenario: Scenario, marker_size_m: float | None = None) -> SimScen
     shapes = part_shapes(scenario, marker_size_m)
     texts = payloads(scenario)
     kinds = {p.id: p.kind for p in scenario.parts}
+    faces = outlines(scenario)
+    truth = truth or {}
     parts = tuple(
         SimPart(
             pid,
@@ -162,6 +192,7 @@ def sim_scene(scenario: Scenario, marker_size_m: float | None = None) -> SimScen
             yaw=box.yaw,
             colour=COLOURS.get(kinds[pid], COLOURS["other"]),
             code_offset=shapes[pid].code_offset,
+            profile=truth.get(pid) or (faces.get(pid) or ("square",))[0],
         )
         for pid, box in boxes.items()
     )

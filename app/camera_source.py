@@ -5,7 +5,9 @@ estimate has been stable for a few frames, then maps it onto one of the node's
 outcome labels (`outcome_of`). It has no answer (None, so the fallback answers)
 at a node that is not a sensing node, when the estimate does not settle before
 the timeout or the frames end, and when what it sees fits none of the options;
-`last_observation` says which, for the panel. When the view shows that the
+`last_observation` says which, for the panel. A look at a part's shape
+(`sense(shapeOf(P))`) is answered by the outline perception reads on P's top
+face, once most of its recent looks agree. When the view shows that the
 person did what no outcome expects (took a part the plan did not count on, put
 the part down instead of attaching it, attached it to another part), the
 answer is a surprise: the executor plans again from what was seen (app.repair).
@@ -29,17 +31,22 @@ from app.simulated_human import SimulatedHuman
 from app.surprises import Surprise
 from perception.frames import Frame, FrameSource
 from perception.pipeline import BenchPerception
-from perception.world import Placement, Where, WorldEstimate
+from perception.world import PartEstimate, Placement, Where, WorldEstimate
 from planner.vocabulary import (
     Action,
     SenseHumanAttachingWhere,
     SenseHumanHolding,
     SenseHumanHoldingWhichPart,
     SenseHumanUnholding,
+    SenseShapeOf,
 )
 
 JPEG_WIDTH = 320  # px: enough to recognise the bench in a review, a few kB each
 JPEG_QUALITY = 80
+# A face's outline is an answer once this share of its recent looks read it, over
+# at least this many looks: one blurred frame must not decide what a part is.
+OUTLINE_AGREEMENT = 0.6
+OUTLINE_LOOKS = 5
 
 
 @dataclass(frozen=True)
@@ -70,7 +77,7 @@ def is_sensing(action: Action | None) -> bool:
     return isinstance(
         action,
         SenseHumanHolding | SenseHumanHoldingWhichPart | SenseHumanUnholding
-        | SenseHumanAttachingWhere,
+        | SenseHumanAttachingWhere | SenseShapeOf,
     )
 
 
@@ -120,7 +127,27 @@ def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[st
             if p.where is Where.ON_BENCH:
                 return Reading(None, est.confidence, words, Surprise("putdown", (part,)))
             return Reading(None, est.confidence, words)
+        case SenseShapeOf(part):
+            return _outline_reading(world, part, options)
     return Reading(None, 0.0, "not a sensing node")
+
+
+def _outline_reading(world: WorldEstimate, part: str, options: Sequence[str]) -> Reading:
+    """The shape of `part`'s face as its recent looks read it (the labels of a
+    shapeOf node are the shapes themselves)."""
+    est = world.parts.get(part)
+    if est is None:
+        return Reading(None, 0.0, f"{part} is not on this bench")
+    outline = est.outline
+    if outline is None or outline.looks == 0:
+        return Reading(None, 0.0, f"{part}'s face has not been in view")
+    if outline.shape is None:
+        return Reading(None, 0.0, f"{part}'s face is not clear in {outline.looks} looks")
+    share = f"{outline.confidence:.0%} of {outline.looks} looks"
+    words = f"{part}'s face looks {outline.shape} in {share}"
+    if outline.looks < OUTLINE_LOOKS or outline.confidence < OUTLINE_AGREEMENT:
+        return Reading(None, outline.confidence, f"{words}: not yet a steady reading")
+    return _fit(outline.shape, outline.confidence, words, options)
 
 
 def _took(part: str, confidence: float) -> Reading:
@@ -148,9 +175,26 @@ def where_words(p: Placement) -> str:
     return "out of sight"
 
 
+def belief_words(p: PartEstimate) -> str:
+    """Where a part is, and for one whose shape is open what its face looks like."""
+    words = where_words(p.placement)
+    if p.outline is not None and p.outline.shape is not None:
+        words += f", looks {p.outline.shape} ({p.outline.confidence:.0%})"
+    return words
+
+
 def placements(world: WorldEstimate) -> dict[str, str]:
     """Each part's placement in words, for the stored evidence and the panel."""
     return {pid: where_words(p.placement) for pid, p in world.parts.items()}
+
+
+def outlines(world: WorldEstimate) -> dict[str, str]:
+    """What each looked-at face's outline reads, for the stored evidence."""
+    return {
+        pid: f"{p.outline.shape or 'unclear'} ({p.outline.confidence:.0%} of {p.outline.looks})"
+        for pid, p in world.parts.items()
+        if p.outline is not None and p.outline.looks
+    }
 
 
 def _seen(
@@ -158,6 +202,7 @@ def _seen(
     frames: int, seconds: float,
 ) -> dict[str, Any]:
     """The evidence of a camera reading; `decided` is what it said ("label" or "surprise")."""
+    faces = outlines(world)
     return {
         decided[0]: decided[1],
         "confidence": round(reading.confidence, 3),
@@ -166,6 +211,7 @@ def _seen(
         "frame_index": frame.index,
         "seconds": round(seconds, 3),
         "placements": placements(world),
+        **({"outlines": faces} if faces else {}),
     }
 
 

@@ -114,6 +114,13 @@ class LiveCamera:
         with self._lock:
             self.simulated.move(part_id, position, yaw)
 
+    def reshape(self, part_id: str, profile: str) -> None:
+        """Redraws a part of the simulated bench with another outline."""
+        if self.simulated is None:
+            raise RuntimeError("only the simulated camera's parts can be reshaped")
+        with self._lock:
+            self.simulated.reshape(part_id, profile)
+
     def _run(self) -> None:
         seq = 0
         stamps: list[float] = []

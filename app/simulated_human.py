@@ -2,12 +2,15 @@
 drawn by a simulated camera that perception then watches.
 
 `SimulatedWorld` holds the physical facts (which arm holds which part, what the
-human holds, what is attached where) and places the parts as the dashboard's
-world model does (`app.bench_world.place_parts`), moving them in the camera's
-scene. `SimulatedHuman` chooses, seeded, what the human does at a sensing node,
+human holds, what is attached where, what shape each leg's and foot's face
+really has) and places the parts as the dashboard's world model does
+(`app.bench_world.place_parts`), moving them in the camera's scene.
+`SimulatedHuman` chooses, seeded, what the human does at a sensing node,
 consistently with the plan, and does it in the world; it never answers a node:
-the camera has to see what it did. As an executor listener it applies the
-robot's actions and complies with what the human agreed to at a question.
+the camera has to see what it did. It also decides, seeded, what a part whose
+shape the scenario leaves open really is, and the camera draws it so: the
+camera has to see that too. As an executor listener it applies the robot's
+actions and complies with what the human agreed to at a question.
 """
 
 from __future__ import annotations
@@ -56,6 +59,8 @@ class PartMover(Protocol):
 
     def move(self, part_id: str, position: Vec3, yaw: float | None = None) -> None: ...
 
+    def reshape(self, part_id: str, profile: str) -> None: ...
+
 
 class StillSimulatedCamera:
     """A clean `SimulatedCamera` that renders only when the world has changed.
@@ -81,6 +86,10 @@ class StillSimulatedCamera:
 
     def move(self, part_id: str, position: Vec3, yaw: float | None = None) -> None:
         self.camera.move(part_id, position, yaw)
+        self._image = None
+
+    def reshape(self, part_id: str, profile: str) -> None:
+        self.camera.reshape(part_id, profile)
         self._image = None
 
     def read(self) -> Frame:
@@ -111,7 +120,15 @@ class SimulatedWorld:
         self.robot: dict[str, str] = {}  # arm -> part
         self.human: list[str] = []  # parts in the human's hands, in the order taken
         self.attached: dict[str, tuple[str, str]] = {}  # part -> (onto, slot)
+        # What each leg's and foot's face really is: the first option until decided,
+        # as the camera's scene draws it.
+        self.outlines = {
+            pid: shape.outlines[0] for pid, shape in layout.parts.items() if shape.outlines
+        }
         self._shown: dict[str, tuple[Vec3, float]] = {}
+        if camera is not None:  # a camera used before may still show a decided shape
+            for pid, outline in self.outlines.items():
+                camera.reshape(pid, outline)
         self.sync()
 
     # --- facts -----------------------------------------------------------------
@@ -149,6 +166,18 @@ class SimulatedWorld:
     def robot_unhold(self, arm: str) -> None:
         self.robot.pop(arm, None)  # an unattached part goes back where it was taken
         self.sync()
+
+    def reshape(self, part: str, outline: str) -> None:
+        """The part turns out to be `outline` (the world decides what it really is)."""
+        self.outlines[part] = outline
+        if self.camera is not None:
+            self.camera.reshape(part, outline)
+
+    def decide_outlines(self, rng: random.Random) -> None:
+        """Each part whose shape is open becomes one of its options, at random."""
+        for pid, shape in sorted(self.layout.parts.items()):
+            if shape.outline_unknown:
+                self.reshape(pid, rng.choice(shape.outlines))
 
     def human_take(self, part: str) -> None:
         if part not in self.human:
@@ -217,7 +246,9 @@ class SimulatedHuman:
     `act(node_id, node, options)` at a sensing node picks one of the outcomes the
     world allows and makes it true (e.g. "yes" at `sense(humanHolding)` takes a
     part, one of the outcomes of the `sense(humanHoldingWhichPart)` that follows);
-    `did[node_id]` keeps the label. Pass `on_event` to the executor's listeners.
+    `did[node_id]` keeps the label. It first decides (seeded) what each part whose
+    shape is open really is; a look at the part is then answered by that truth.
+    Pass `on_event` to the executor's listeners.
     """
 
     def __init__(self, plan: Plan, world: SimulatedWorld, seed: int | None = None) -> None:
@@ -229,6 +260,7 @@ class SimulatedHuman:
         self.acts: list[HumanAct] = []
         self._intended: dict[str, str] = {}  # node -> label decided at an earlier node
         self._wanted: str | None = None  # the outcome clicked for the node being acted
+        world.decide_outlines(self._rng)
 
     def _pick(self, choices: Sequence[str]) -> str:
         # A clicked outcome is taken whenever the world allows it; else a seeded choice.
@@ -300,9 +332,17 @@ class SimulatedHuman:
                 slot = self._pick(free or list(options))
                 w.human_attach(part, onto, slot)
                 return slot
-            case SenseShapeOf() | SenseLengthOf():
-                # What the part turns out to be: the human does nothing; a click
-                # (or the seed) decides what the bench really holds.
+            case SenseShapeOf(part):
+                # What the part is: the world decided it; a click for another
+                # option says the bench really holds that (the part is swapped).
+                truth = w.outlines.get(part)
+                if self._wanted is not None and self._wanted in options:
+                    if self._wanted != truth:
+                        w.reshape(part, self._wanted)
+                    return self._wanted
+                return truth if truth in options else self._pick(list(options))
+            case SenseLengthOf():
+                # The human does nothing; a click (or the seed) decides what it is.
                 return self._pick(list(options))
         return None
 

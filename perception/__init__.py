@@ -1,6 +1,7 @@
 """Perception: where the parts are and what the human holds, from camera frames.
 
-Data flow: frames -> detections -> sightings -> tracks -> world estimate.
+Data flow: frames -> detections -> sightings -> tracks -> world estimate, and
+detections -> looks at faces -> outlines in the estimate.
 
 - `frames`: `Frame`, the `FrameSource` protocol, webcam / video file / image folder
   sources, `open_source(spec)`, `SourceError`.
@@ -20,9 +21,14 @@ Data flow: frames -> detections -> sightings -> tracks -> world estimate.
 - `world`: `WorldEstimator` -> `WorldEstimate` (each part on the bench in a region,
   held by the human or the robot, attached to a part at a slot, or unknown; the
   human's hands; stability).
+- `outline`: a part's top-face outline (circle, square, triangle) in one frame, on
+  the plane its code's corners give; `outline_watch`: `OutlineWatch`, the outline
+  most recent looks read (`PartEstimate.outline`); `outline_bench`: a bench of
+  such parts with known truth, and the share of looks right.
 - `pipeline`: `BenchPerception.process(frame)` runs the whole chain.
 - `annotate`: a frame with its decoded codes boxed and labelled and the bench axes.
-- `sim`: `SimulatedCamera` (a `FrameSource` rendering a `SimScene` with pybullet),
+- `sim`: `SimulatedCamera` (a `FrameSource` rendering a `SimScene` with pybullet,
+  parts as boxes, cylinders or triangular prisms),
   `write_video`; `paper_bench`: the paper's base bench as layout and scene.
 - `bench`: ``python -m perception.bench`` times the chain and maps detection rates.
 

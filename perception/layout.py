@@ -27,11 +27,21 @@ class PartShape:
     """A part's box size (x, y, z) in metres; for parts others attach to, each
     connection slot's (dx, dy) offset from the part's centre in the bench's axes; and
     where its code sits on its top face, from the face's centre in the part's own
-    axes (a top's code sits off-centre, clear of the legs that stand on it)."""
+    axes (a top's code sits off-centre, clear of the legs that stand on it).
+
+    `outlines` are what its top face's outline may be ("circle", "square",
+    "triangle", as `perception.outline` tells them apart): with more than one,
+    perception looks at the face beside the code every frame it sees the code.
+    """
 
     size: tuple[float, float, float]
     slots: dict[str, tuple[float, float]] = field(default_factory=dict)
     code_offset: tuple[float, float] = (0.0, 0.0)
+    outlines: tuple[str, ...] = ()
+
+    @property
+    def outline_unknown(self) -> bool:
+        return len(self.outlines) > 1
 
 
 @dataclass(frozen=True)

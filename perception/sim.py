@@ -1,5 +1,6 @@
-"""A simulated camera over the bench: pybullet renders boxes with QR codes on their
-top faces and reference codes on the bench, from a settable camera pose.
+"""A simulated camera over the bench: pybullet renders parts (boxes, cylinders or
+triangular prisms, after their outline) with QR codes on their top faces and
+reference codes on the bench, from a settable camera pose.
 
 Codes are one-quad OBJ meshes with UVs 0..1 (a texture on a box face comes out
 cropped); the quad includes the quiet zone, so it may overhang a narrow part like a
@@ -40,13 +41,16 @@ vn 0 0 1
 f 1/1/1 2/2/1 3/3/1
 f 1/1/1 3/3/1 4/4/1
 """
+_CIRCLE_SIDES = 48
 _LIFT_CODE = 0.0008  # the code floats this far over its face, against z-fighting
 
 
 @dataclass(frozen=True)
 class SimPart:
-    """A part as a box: centre position, yaw about z, size (x, y, z), and the payload
-    of the code on its top face (None: no code)."""
+    """A part in its box: centre position, yaw about z, size (x, y, z), and the payload
+    of the code on its top face (None: no code). `profile` is its top face's outline
+    in that box: "square" fills it, "circle" a cylinder across its narrower side,
+    "triangle" an equilateral prism (`triangle_corners`); any other word a box."""
 
     part_id: str
     size: Vec3
@@ -55,6 +59,42 @@ class SimPart:
     yaw: float = 0.0
     colour: tuple[float, float, float] = (0.85, 0.8, 0.7)
     code_offset: tuple[float, float] = (0.0, 0.0)  # on the top face, in the part's axes
+    profile: str = "square"
+
+
+def triangle_corners(width: float, depth: float) -> tuple[tuple[float, float], ...]:
+    """An equilateral triangle as large as fits a width x depth footprint, centred
+    on it: its base along -y, its apex towards +y (the part's own axes)."""
+    side = min(width, depth * 2 / math.sqrt(3))
+    height = side * math.sqrt(3) / 2
+    return ((-side / 2, -height / 2), (side / 2, -height / 2), (0.0, height / 2))
+
+
+def prism_obj(corners: tuple[tuple[float, float], ...], height: float) -> str:
+    """A closed prism over a convex polygon (counter-clockwise), as OBJ text with one
+    normal per face so that the renderer shades its faces flat."""
+    lines: list[str] = []
+    n = len(corners)
+    faces: list[tuple[list[tuple[float, float, float]], tuple[float, float, float]]] = []
+    top = [(x, y, height / 2) for x, y in corners]
+    bottom = [(x, y, -height / 2) for x, y in reversed(corners)]
+    faces += [(top, (0.0, 0.0, 1.0)), (bottom, (0.0, 0.0, -1.0))]
+    for i in range(n):
+        (x0, y0), (x1, y1) = corners[i], corners[(i + 1) % n]
+        length = math.hypot(x1 - x0, y1 - y0)
+        normal = ((y1 - y0) / length, -(x1 - x0) / length, 0.0)
+        quad = [(x0, y0, -height / 2), (x1, y1, -height / 2),
+                (x1, y1, height / 2), (x0, y0, height / 2)]
+        faces.append((quad, normal))
+    index = 1
+    for k, (vertices, normal) in enumerate(faces, start=1):
+        lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in vertices]
+        lines.append(f"vn {normal[0]:.6f} {normal[1]:.6f} {normal[2]:.6f}")
+        for j in range(1, len(vertices) - 1):
+            a, b, c = index, index + j, index + j + 1
+            lines.append(f"f {a}//{k} {b}//{k} {c}//{k}")
+        index += len(vertices)
+    return "\n".join(lines) + "\n"
 
 
 @dataclass(frozen=True)
@@ -161,6 +201,28 @@ class SimulatedCamera:
         )
         return int(pb.createMultiBody(baseVisualShapeIndex=shape, physicsClientId=self._client))
 
+    def _solid(self, part: SimPart) -> int:
+        """The part's body after its outline (see `SimPart`)."""
+        colour = [*part.colour, 1.0]
+        w, d, h = part.size
+        if part.profile == "circle":
+            # A many-sided prism, not GEOM_CYLINDER: the renderer shades that one's
+            # flat top like a dome.
+            corners = tuple(
+                (min(w, d) / 2 * math.cos(a), min(w, d) / 2 * math.sin(a))
+                for a in np.linspace(0, 2 * math.pi, _CIRCLE_SIDES, endpoint=False)
+            )
+        elif part.profile == "triangle":
+            corners = triangle_corners(w, d)
+        else:
+            return self._box(part.size, (*part.colour, 1.0))
+        mesh = self._dir / f"{part.profile}-{w:.4f}-{d:.4f}-{h:.4f}.obj"
+        mesh.write_text(prism_obj(corners, h))
+        shape = pb.createVisualShape(
+            pb.GEOM_MESH, fileName=str(mesh), rgbaColor=colour, physicsClientId=self._client,
+        )
+        return int(pb.createMultiBody(baseVisualShapeIndex=shape, physicsClientId=self._client))
+
     def _build(self) -> None:
         s = self.scene
         (x0, x1), (y0, y1) = s.bench_x, s.bench_y
@@ -177,7 +239,7 @@ class SimulatedCamera:
                 physicsClientId=self._client,
             )
         for part in s.parts:
-            box = self._box(part.size, (*part.colour, 1.0))
+            box = self._solid(part)
             code = None
             if part.payload:
                 code = self._code_body(part.payload, f"part-{part.part_id}")[0]
@@ -209,6 +271,19 @@ class SimulatedCamera:
             self._covers[part.part_id], [x, y, z + part.size[2] / 2 + 0.08], [0, 0, 0, 1],
             physicsClientId=self._client,
         )
+
+    def reshape(self, part_id: str, profile: str) -> None:
+        """Give a part another outline (the simulated world decides what an unknown
+        part really is), where it stands now."""
+        old = self._parts[part_id]
+        if old.profile == profile:
+            return
+        new = replace(old, profile=profile)
+        box, code = self._bodies[part_id]
+        pb.removeBody(box, physicsClientId=self._client)
+        self._bodies[part_id] = (self._solid(new), code)
+        self._parts[part_id] = new
+        self._place(new)
 
     def part(self, part_id: str) -> SimPart:
         return self._parts[part_id]

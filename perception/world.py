@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from perception.layout import BenchLayout
+from perception.outline import OutlineEstimate
 from perception.tracking import Track, Vec3
 
 
@@ -45,6 +46,7 @@ class PartEstimate:
     position: Vec3 | None  # last known centre of its box; None if never seen
     confidence: float  # 0..1
     age: int  # frames this placement has been reported
+    outline: OutlineEstimate | None = None  # its top face's, for a part whose is open
 
     @property
     def where(self) -> Where:

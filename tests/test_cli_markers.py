@@ -62,3 +62,8 @@ def test_the_sheet_says_where_each_code_goes() -> None:
     assert where_on_part((0.09, 0.0)) == "top face, +9 cm x from the centre"
     assert where_on_part((0.0, -0.124)) == "top face, -12 cm y from the centre"
     assert where_on_part((0.0, 0.0)) == "centre of the top face"
+    # Beside a face smaller than the code (a foot the camera must see): on a card.
+    assert where_on_part((0.0, -0.09), (0.04, 0.04)) == (
+        "on a card flush with the top face, -9 cm y from its centre"
+    )
+    assert where_on_part((0.09, 0.0), (0.30, 0.50)) == "top face, +9 cm x from the centre"

@@ -27,14 +27,19 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(run=run)
 
 
-def where_on_part(offset: tuple[float, float]) -> str:
+def where_on_part(
+    offset: tuple[float, float], face: tuple[float, float] | None = None
+) -> str:
     """Where a part's code goes (perception reads the part's centre from it), in the
-    part's own axes: the bench's, for a part lying as the scenario puts it."""
+    part's own axes: the bench's, for a part lying as the scenario puts it. With the
+    top face's size, a code centred off the face goes on a card flush with it."""
     shifts = [
         f"{v * 100:+.0f} cm {axis}" for v, axis in zip(offset, "xy", strict=True) if abs(v) >= 0.005
     ]
     if not shifts:
         return "centre of the top face"
+    if face is not None and (abs(offset[0]) > face[0] / 2 or abs(offset[1]) > face[1] / 2):
+        return f"on a card flush with the top face, {' '.join(shifts)} from its centre"
     return f"top face, {' '.join(shifts)} from the centre"
 
 
@@ -55,7 +60,10 @@ def run(args: argparse.Namespace) -> int:
 
     layout = bench_layout(scenario)
     codes = [PartCode(pid, marker) for pid, marker in marker_ids(scenario).items()]
-    notes = {pid: where_on_part(shape.code_offset) for pid, shape in layout.parts.items()}
+    notes = {
+        pid: where_on_part(shape.code_offset, (shape.size[0], shape.size[1]))
+        for pid, shape in layout.parts.items()
+    }
     try:
         written = render_marker_sheet(
             codes, layout.references, layout.marker_size_m, out, dpi=args.dpi, notes=notes

@@ -21,7 +21,7 @@ import numpy as np
 import viser
 
 from app.camera_input import open_camera
-from app.camera_source import where_words
+from app.camera_source import belief_words
 from app.dashboard.operator import Operator
 from app.dashboard.scenario_folders import RefusedName, find_recording
 from app.dashboard.stage import CameraChanged, Events, ScenarioChanged, Stage
@@ -144,7 +144,7 @@ class CameraPanel:
         if live is None:
             return
         observation, world = view.perceived.observation, view.perceived.world
-        labels = {pid: f"{pid}: {where_words(p.placement)}" for pid, p in world.parts.items()}
+        labels = {pid: f"{pid}: {belief_words(p)}" for pid, p in world.parts.items()}
         x0 = live.layout.bench_x[0]
         annotated = annotate(
             view.frame.image, observation.detections, observation.camera, live.intrinsics,
@@ -165,7 +165,7 @@ class CameraPanel:
             f"{len(observation.detections)} codes; camera {located}"
         )
         self.beliefs.content = "\n\n".join(
-            f"`{pid}` {where_words(p.placement)} ({p.confidence:.2f})"
+            f"`{pid}` {belief_words(p)} ({p.confidence:.2f})"
             for pid, p in world.parts.items()
         ) + ("" if world.stable else "\n\n*(settling)*")
         if live.ended is not None:
