@@ -3,7 +3,7 @@
 Pure functions of the plan and the bench geometry (no viser), so they are tested
 without a browser. Attached parts stand on their assembly at the connection point;
 held parts float a little above where they were taken; parts in the human's hands
-are drawn on the human's side of the bench.
+are drawn just past the bench's human-side edge, wherever the scenario puts it.
 """
 
 from __future__ import annotations
@@ -17,7 +17,15 @@ from planner.plan import PlanNode
 from planner.vocabulary import Hands
 
 LIFT = 0.12  # metres above the bench for a part held by an arm
-HUMAN_HANDS_X = 1.55  # where the human holds parts, past the far edge of the bench
+# The human holds parts this far past the bench's human-side edge (a forearm's
+# reach over it), and this high above the bench top.
+HANDS_PAST_EDGE = 0.15
+HANDS_Z = BENCH_TOP_Z + 0.25
+
+
+def hands_x(human_edge_x: float) -> float:
+    """Where the human holds parts (x), past the bench's edge at `human_edge_x`."""
+    return human_edge_x + HANDS_PAST_EDGE
 
 
 @dataclass(frozen=True)
@@ -37,7 +45,10 @@ class WorldView:
     arms: dict[str, list[float]]  # arm -> 7 joint values
 
 
-def place_parts(boxes: dict[str, PartBox], state: list[str]) -> dict[str, Placement]:
+def place_parts(
+    boxes: dict[str, PartBox], state: list[str], *, human_edge_x: float
+) -> dict[str, Placement]:
+    """Each part's box centre in `state`; the bench's human-side edge is at `human_edge_x`."""
     hands = Hands.of(state)
     attached, human = hands.attached, hands.human
     held_by = {part: arm for arm, part in hands.holding.items()}
@@ -61,7 +72,7 @@ def place_parts(boxes: dict[str, PartBox], state: list[str]) -> dict[str, Placem
         elif pid in held_by:
             result = Placement(box.x, box.y, BENCH_TOP_Z + box.size[2] / 2 + LIFT, held_by[pid])
         elif pid in human:
-            result = Placement(HUMAN_HANDS_X, box.y, BENCH_TOP_Z + 0.25, "human")
+            result = Placement(hands_x(human_edge_x), box.y, HANDS_Z, "human")
         else:
             result = Placement(box.x, box.y, BENCH_TOP_Z + box.size[2] / 2)
         out[pid] = result
@@ -84,7 +95,8 @@ def arms_at(nodes: Mapping[str, PlanNode], lineage: list[str]) -> dict[str, list
 
 
 def world_at(
-    nodes: Mapping[str, PlanNode], lineage: list[str], boxes: dict[str, PartBox]
+    nodes: Mapping[str, PlanNode], lineage: list[str], boxes: dict[str, PartBox],
+    *, human_edge_x: float,
 ) -> WorldView:
     """The world as the selected node (last of `lineage`) leaves it: its own action
     done, so clicking `hold(left,leg1)` shows leg1 in the left hand."""
@@ -92,4 +104,4 @@ def world_at(
     after = node.state
     if node.kind == "actuation" and node.children:
         after = nodes[node.children[0].node].state
-    return WorldView(place_parts(boxes, after), arms_at(nodes, lineage))
+    return WorldView(place_parts(boxes, after, human_edge_x=human_edge_x), arms_at(nodes, lineage))

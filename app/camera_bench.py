@@ -14,7 +14,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
-from perception.codes_image import QUIET_ZONE_MODULES, modules_across
+from app.bench_world import hands_x
+from perception.codes_image import printed_side
 from perception.layout import BenchLayout, PartShape, Region
 from perception.markers import corner_references, encode_part
 from planner.feasibility.scene import (
@@ -63,8 +64,7 @@ def payloads(scenario: Scenario) -> dict[str, str]:
 
 def code_side(payload: str, marker_size_m: float) -> float:
     """The printed square of a code, quiet zone included (what may hide another)."""
-    modules = modules_across(payload)
-    return marker_size_m * (modules + 2 * QUIET_ZONE_MODULES) / modules
+    return printed_side(payload, marker_size_m)
 
 
 def slot_offsets(box: PartBox) -> dict[str, tuple[float, float]]:
@@ -169,9 +169,10 @@ def sim_scene(
     scenario: Scenario, marker_size_m: float | None = None,
     truth: Mapping[str, str] | None = None,
 ) -> SimScene:
-    """The parts resting where the scenario puts them, each with its own code, and a
-    leg or a foot drawn with its shape: `truth` for one the scenario leaves open
-    (else its first option; the simulated world may reshape it later)."""
+    """The parts resting where the scenario puts them, each with its own code, a
+    leg or a foot drawn with its shape (`truth` for one the scenario leaves open,
+    else its first option; the simulated world may reshape it later), and the
+    human's hands past the bench's far edge, where the camera frames them."""
     from perception.sim import SimPart, SimScene
 
     if marker_size_m is None:
@@ -203,4 +204,5 @@ def sim_scene(
         bench_x=bench_x,
         bench_y=bench_y,
         marker_size_m=marker_size_m,
+        hands_x=hands_x(bench_x[1]),
     )

@@ -199,26 +199,32 @@ class SimulatedWorld:
     # --- drawing -----------------------------------------------------------------
     def poses(self) -> dict[str, tuple[Vec3, float]]:
         """Each part's box centre and yaw, as the dashboard places them."""
-        placed = place_parts(self.boxes, self.state())
+        placed = place_parts(self.boxes, self.state(), human_edge_x=self.layout.human_side_x)
         return {
             pid: ((p.x, p.y, p.z), self._yaw(pid, (p.x, p.y))) for pid, p in placed.items()
         }
 
     def _yaw(self, part: str, at: tuple[float, float]) -> float:
-        """The part's own yaw; an attached part is turned half round if that puts
-        its code on the side away from what it stands on, as a person turns a
-        label outwards. Only parts whose slots are all at their centre turn, so
-        the slots' offsets (in the bench's axes) stay right."""
+        """The part's own yaw, or half round from it to turn its code to where a
+        person shows it: on a part in the human's hands, towards the bench (-x),
+        not out past the hands where the camera's view of the bench ends; on an
+        attached part, away from what it stands on. Only parts whose slots are all
+        at their centre turn, so the slots' offsets (in the bench's axes) stay right."""
         box = self.boxes[part]
         shape = self.layout.parts.get(part)
-        if part not in self.attached or shape is None or shape.code_offset == (0.0, 0.0):
+        if shape is None or shape.code_offset == (0.0, 0.0):
             return box.yaw
         if any(abs(dx) > 1e-9 or abs(dy) > 1e-9 for dx, dy in shape.slots.values()):
             return box.yaw
-        onto = self.boxes[self.attached[part][0]]
         dx, dy = shape.code_offset
         c, s = math.cos(box.yaw), math.sin(box.yaw)
-        outwards = (at[0] - onto.x) * (c * dx - s * dy) + (at[1] - onto.y) * (s * dx + c * dy)
+        code = (c * dx - s * dy, s * dx + c * dy)  # the code's offset in the bench's axes
+        if part in self.human:
+            return box.yaw if code[0] <= 0 else box.yaw + math.pi
+        if part not in self.attached:
+            return box.yaw
+        onto = self.boxes[self.attached[part][0]]
+        outwards = (at[0] - onto.x) * code[0] + (at[1] - onto.y) * code[1]
         return box.yaw if outwards >= 0 else box.yaw + math.pi
 
     def sync(self) -> None:

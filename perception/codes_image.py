@@ -22,6 +22,12 @@ def modules_across(payload: str) -> int:
     return int(width)
 
 
+def printed_side(payload: str, marker_size_m: float) -> float:
+    """The printed square of a code `marker_size_m` wide, its quiet zone included."""
+    modules = modules_across(payload)
+    return marker_size_m * (modules + 2 * QUIET_ZONE_MODULES) / modules
+
+
 def qr_image(payload: str, module_px: int, border: int = QUIET_ZONE_MODULES) -> PILImage.Image:
     """The symbol as an RGB image, `module_px` pixels a module, `border` quiet modules."""
     buffer = io.BytesIO()

@@ -106,4 +106,5 @@ def scene(marker_size_m: float = DEFAULT_MARKER_SIZE_M) -> SimScene:
         bench_x=BENCH_X,
         bench_y=BENCH_Y,
         marker_size_m=marker_size_m,
+        hands_x=HUMAN_HANDS_X,
     )

@@ -22,7 +22,7 @@ import numpy as np
 import numpy.typing as npt
 import pybullet as pb
 
-from perception.codes_image import QUIET_ZONE_MODULES, modules_across, qr_image
+from perception.codes_image import printed_side, qr_image
 from perception.frames import Frame, Image
 from perception.intrinsics import CameraIntrinsics
 from perception.markers import DEFAULT_MARKER_SIZE_M, ReferenceMarker, encode_reference
@@ -106,6 +106,7 @@ class SimScene:
     bench_y: tuple[float, float] = (-0.70, 0.70)
     marker_size_m: float = DEFAULT_MARKER_SIZE_M
     light_direction: Vec3 = (0.3, 0.2, 1.0)
+    hands_x: float | None = None  # where the human holds parts; None: just past the bench
 
 
 @dataclass(frozen=True)
@@ -137,30 +138,67 @@ class Degradation:
     seed: int = 0
 
 
-# Default camera: straight down over the middle of the bench and the human's hands
-# (x 0.30..1.65), 1.45 m above the bench, 60 deg across 1024 px (square image): the
-# whole bench and the hands are in view and a 10 cm code spans ~62 px. Measured with
-# jitter, blur, noise and gain: 99 % of the codes decode at 1024 px, 76 % at 896, 28 %
-# at 768; a frame renders in ~0.15 s. perception.bench maps distance and tilt.
-DEFAULT_CAMERA = CameraPlacement(eye=(0.975, 0.0, 1.40), target=(0.975, 0.0, -0.05))
+# The simulated camera looks straight down over the middle of the bench and the
+# human's hands, OVERHEAD_HEIGHT above the bench top unless the bench or a code held
+# in the hands would then be out of view: 60 deg across a square image. Over the
+# paper's bench (x 0.30..1.40, hands at 1.55) it is at x 0.975, 1.45 m up: the whole
+# bench and the hands are in view and a 10 cm code spans ~62 px at 1024 px (~38 at
+# 640, near the limit). Measured with jitter, blur, noise and gain: 99 % of the codes
+# decode at 1024 px, 76 % at 896, 28 % at 768; a frame renders in ~0.15 s.
+# perception.bench maps distance and tilt.
+OVERHEAD_HEIGHT = 1.45
+HANDS_PAST_EDGE = 0.15  # where the human holds parts, when the scene does not say
+HELD_CODE_ABOVE = 0.30  # how high over the bench top a held part's code may be
+_VIEW_PAST_HANDS = 0.10  # the middle of the view is that of the bench and this much more
+_VIEW_USED = 0.97  # of the half-view: a code at the very edge of the frame may not read
 DEFAULT_SIZE = (1024, 1024)
 DEFAULT_HFOV_DEG = 60.0
 
 
+def overhead(
+    scene: SimScene, hfov_deg: float = DEFAULT_HFOV_DEG, size: tuple[int, int] = DEFAULT_SIZE
+) -> CameraPlacement:
+    """Straight down over `scene`'s bench and hands, as low as keeps them in view.
+
+    The camera's up is +x, so the bench's length runs down the image and its width
+    across. It stays `OVERHEAD_HEIGHT` up unless the bench top (its corners carry
+    the reference codes) or a code held at the hands' x, `HELD_CODE_ABOVE` the
+    bench, would leave the view; then it rises just enough for all of them.
+    """
+    (x0, x1), (y0, y1) = scene.bench_x, scene.bench_y
+    hands = scene.hands_x if scene.hands_x is not None else x1 + HANDS_PAST_EDGE
+    middle = (x0 + max(x1, hands + _VIEW_PAST_HANDS)) / 2
+    tan_across = _VIEW_USED * math.tan(math.radians(hfov_deg) / 2)
+    tan_along = tan_across * size[1] / size[0]
+    sides = [printed_side(p.payload, scene.marker_size_m) for p in scene.parts if p.payload]
+    half_code = max(sides, default=scene.marker_size_m) / 2
+    height = max(
+        OVERHEAD_HEIGHT,
+        (middle - x0) / tan_along,
+        (x1 - middle) / tan_along,
+        (hands + half_code - middle) / tan_along + HELD_CODE_ABOVE,
+        (y1 - y0) / 2 / tan_across,
+    )
+    y = (y0 + y1) / 2
+    top = scene.bench_top_z
+    return CameraPlacement(eye=(middle, y, top + height), target=(middle, y, top))
+
+
 class SimulatedCamera:
-    """Renders `scene` (a `FrameSource`); world changes apply to the next frame."""
+    """Renders `scene` (a `FrameSource`) from `placement`, by default `overhead` of
+    its bench; world changes apply to the next frame."""
 
     def __init__(
         self,
         scene: SimScene,
-        placement: CameraPlacement = DEFAULT_CAMERA,
+        placement: CameraPlacement | None = None,
         size: tuple[int, int] = DEFAULT_SIZE,
         hfov_deg: float = DEFAULT_HFOV_DEG,
         degradation: Degradation | None = None,
         fps: float = 30.0,
     ) -> None:
         self.scene = scene
-        self.placement = placement
+        self.placement = placement or overhead(scene, hfov_deg, size)
         self.degradation = degradation or Degradation()
         self._size = size
         self._hfov = hfov_deg
@@ -174,14 +212,13 @@ class SimulatedCamera:
         self._bodies: dict[str, tuple[int, int | None]] = {}  # part -> (box, code)
         self._parts: dict[str, SimPart] = {}
         self._covers: dict[str, int] = {}
-        self.last_pose: CameraPose = placement.pose()
+        self.last_pose: CameraPose = self.placement.pose()
         self._build()
 
     # --- the world ---------------------------------------------------------------
     def _code_body(self, payload: str, key: str) -> tuple[int, float]:
         """A textured quad for `payload`; returns the body and its side (with margin)."""
-        modules = modules_across(payload)
-        side = self.scene.marker_size_m * (modules + 2 * QUIET_ZONE_MODULES) / modules
+        side = printed_side(payload, self.scene.marker_size_m)
         png = self._dir / f"{key}.png"
         qr_image(payload, module_px=8).save(png)
         shape = pb.createVisualShape(

@@ -7,12 +7,12 @@ from typing import Any
 
 import pytest
 
-from app.bench_world import place_parts, world_at
+from app.bench_world import hands_x, place_parts, world_at
 from app.dashboard import scenario_edit
 from app.dashboard.scenario_folders import RefusedName, ScenarioFolders
 from app.dashboard.tree_layout import SpanningTree, layout
 from planner.feasibility.robot import HOME
-from planner.feasibility.scene import part_boxes
+from planner.feasibility.scene import part_boxes, region_extents
 from planner.plan import Plan
 from planner.planning import plan_scenario
 from planner.scenario import load_scenario
@@ -62,25 +62,32 @@ def test_layout_puts_parents_over_children_and_collapses(doc: dict[str, Any]) ->
 
 
 def test_world_at_a_node_shows_its_action_done(doc: dict[str, Any]) -> None:
-    boxes = part_boxes(load_scenario(DEFAULT))
+    scenario = load_scenario(DEFAULT)
+    boxes = part_boxes(scenario)
+    edge = max(hi for _, hi in region_extents(scenario).values())
     tree = SpanningTree.of(Plan.from_json(doc))
     nodes = doc["nodes"]
     hold = next(i for i, n in nodes.items() if str(n["action"]).startswith("hold(left,"))
     part = nodes[hold]["action"][len("hold(left,") : -1]
-    view = world_at(Plan.from_json(doc).nodes, tree.lineage(hold), boxes)
+    view = world_at(Plan.from_json(doc).nodes, tree.lineage(hold), boxes, human_edge_x=edge)
     assert view.parts[part].holder == "left"
     assert view.parts[part].z > boxes[part].top_z  # lifted off the bench
     assert view.arms["left"] == nodes[hold]["motion"]["path"][-1]
     assert view.arms["right"] == HOME["right"] or any(
         nodes[n].get("motion", {}).get("arm") == "right" for n in tree.lineage(hold)
     )
-    placed = place_parts(boxes, ["attached(leg1,top,c1)", "attached(foot1,leg1,foot)"])
+    placed = place_parts(
+        boxes, ["attached(leg1,top,c1)", "attached(foot1,leg1,foot)"], human_edge_x=edge
+    )
     top_c1 = boxes["top"].sites()["c1"]
     assert (placed["leg1"].x, placed["leg1"].y) == pytest.approx(top_c1)
     assert placed["foot1"].z > placed["leg1"].z > placed["top"].z
     assert placed["foot1"].attached_to == "leg1"
-    human = place_parts(boxes, ["humanHoldingPart(leg2)"])
-    assert human["leg2"].holder == "human" and human["leg2"].x > boxes["leg2"].x
+    human = place_parts(boxes, ["humanHoldingPart(leg2)"], human_edge_x=edge)
+    assert human["leg2"].holder == "human" and human["leg2"].x == hands_x(edge) > edge
+    # A longer bench moves the hands with its edge.
+    further = place_parts(boxes, ["humanHoldingPart(leg2)"], human_edge_x=edge + 0.5)
+    assert further["leg2"].x == pytest.approx(human["leg2"].x + 0.5)
 
 
 def test_scenario_edits_validate_and_save(tmp_path: Path) -> None:

@@ -50,6 +50,7 @@ class BenchScene:
     def __init__(self, server: viser.ViserServer, *, load_models: bool = True) -> None:
         self.server = server
         self.boxes: dict[str, PartBox] = {}
+        self.human_edge_x = 0.0  # the bench's far end (x), where the human's hands reach over
         self.scenario: Scenario | None = None
         self._part_handles: dict[str, viser.BoxHandle] = {}
         self._label_handles: dict[str, viser.LabelHandle] = {}
@@ -88,6 +89,7 @@ class BenchScene:
         extents = region_extents(scenario)
         x_lo = min(lo for lo, _ in extents.values())
         x_hi = max(hi for _, hi in extents.values())
+        self.human_edge_x = x_hi
         self._static.append(
             scene.add_box(
                 f"{PREFIX}/table",

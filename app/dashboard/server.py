@@ -376,7 +376,9 @@ class Dashboard:
                 self._show_world(self.plan, self.tree.tree.lineage(node_id))
 
     def _show_world(self, plan: Plan, lineage: list[str]) -> None:
-        world = world_at(plan.nodes, lineage, self.bench.boxes)
+        world = world_at(
+            plan.nodes, lineage, self.bench.boxes, human_edge_x=self.bench.human_edge_x
+        )
         self.bench.show(world)
         self.current_arms = world.arms
 
