@@ -15,7 +15,7 @@ _FACT_ARITY: dict[str, int] = {
     "part": 1, "movable": 1, "class": 2, "attachable": 2, "connection": 2,
     "dangerous": 1, "region": 1, "humanReach": 1, "loc": 2, "manipulator": 1,
     "reachable": 2, "goal": 2, "safety": 1, "verbosity": 1, "initiative": 1,
-    "resumed": 0,
+    "resumed": 0, "pointsChecked": 1, "pointReach": 3,
     "plannedConfiguration": 0, "goalOption": 2, "shapeOption": 2, "lengthOption": 2,
 }  # fmt: skip
 
@@ -40,6 +40,9 @@ class Facts:
     verbosity: str = "normal"
     initiative: int = DEFAULT_INITIATIVE  # how often the human may pick a part up unasked
     resumed: bool = False  # planned from a later state (a repair): no greeting again
+    # Fixed parts whose points geometry checked, and (arm, part, point) each arm reaches.
+    points_checked: set[str] = field(default_factory=set)
+    point_reach: set[tuple[str, str, str]] = field(default_factory=set)
     # A planned configuration (planner.domain_config): the pairs a table may
     # use, and what each part's shape and length may be (one option: known).
     planned: bool = False
@@ -99,6 +102,10 @@ def _add_fact(f: Facts, name: str, a: tuple[str, ...]) -> str | None:
             f.manipulators.append(a[0])
     elif name == "reachable":
         f.reachable.add((a[0], a[1]))
+    elif name == "pointsChecked":
+        f.points_checked.add(a[0])
+    elif name == "pointReach":
+        f.point_reach.add((a[0], a[1], a[2]))
     elif name == "goal":
         if (a[0], a[1]) not in f.goals:
             f.goals.append((a[0], a[1]))

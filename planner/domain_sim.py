@@ -238,6 +238,36 @@ class Domain:
         points = self.open_points(s, p, q)
         return points[0] if points else None
 
+    def arms_at(self, q: str, c: str) -> int:
+        return sum((m, q, c) in self.f.point_reach for m in self.f.manipulators)
+
+    def arm_point(self, s: State, m: str, p: str, q: str) -> str | None:
+        """Onto a fixed part whose points were checked: the open point M reaches that
+        the fewest arms reach (then in term order)."""
+        points = [c for c in self.open_points(s, p, q) if (m, q, c) in self.f.point_reach]
+        return min(points, key=lambda c: (self.arms_at(q, c), term_order(c)), default=None)
+
+    def human_point(self, s: State, p: str, q: str) -> str | None:
+        """Where the plan expects the human to attach P onto Q: the first open point,
+        or onto a fixed part whose points were checked the one the most arms reach."""
+        if q not in self.f.points_checked:
+            return self.free_point(s, p, q)
+        points = self.open_points(s, p, q)
+        return min(points, key=lambda c: (-self.arms_at(q, c), term_order(c)), default=None)
+
+    def stands_at(self, s: State, q: str) -> tuple[str, str] | None:
+        """(R, C) when Q is attached, down its chain, at point C of a fixed part R
+        whose points were checked: whoever works on Q works at that point."""
+        seen = {q}
+        while True:
+            up = sorted((x[2], x[3]) for x in s if x[0] == "attached" and x[1] == q)
+            if not up or up[0][0] in seen:
+                return None
+            if up[0][0] in self.f.points_checked:
+                return up[0]
+            q = up[0][0]
+            seen.add(q)
+
     def still_needed(self, s: State, p: str) -> bool:
         if self.table is not None:
             # Which table the planner chose is its own; any part a table may use
@@ -323,6 +353,9 @@ class Domain:
             if self.in_reach(p):
                 need(self.human_knows_not(s, p), f"humanKnowsNot({p})")
             need(self.still_needed(s, p), f"stillNeeded({p})")
+            bound = [q for q in self.goal_onto(p) if q in f.points_checked]
+            if bound and all(self.arm_point(s, m, p, q) is None for q in bound):
+                fails.append(f"an open point of {bound[0]} that {m} reaches")
             if self.table is not None:
                 fails.extend(self.table.hold_failures(s, p))
         elif n in PROPERTIES:
@@ -337,10 +370,17 @@ class Domain:
             need(bool(held), f"holding({x[0]},_)")
             if held:
                 h = held[0]
-                need(
-                    self.is_attached(s, h) or any(y[0] == "attached" and y[2] == h for y in s),
-                    f"attached({h},_,_) or attached(_,{h},_)",
-                )
+                carries = any(y[0] == "attached" and y[2] == h for y in s)
+                stands = self.stands_at(s, h)
+                if stands is not None and (x[0], *stands) not in f.point_reach:
+                    fails.append(f"pointReach({x[0]},{stands[0]},{stands[1]})")
+                if f.points_checked:
+                    need(self.is_attached(s, h), f"attached({h},_,_)")
+                else:
+                    need(
+                        self.is_attached(s, h) or carries,
+                        f"attached({h},_,_) or attached(_,{h},_)",
+                    )
         elif n == "humanHolding":
             need(HUMAN_FREE not in s, "not humanFree")
             need(HUMAN_HOLDING not in s, "not humanHolding")
@@ -381,8 +421,14 @@ class Domain:
         if self.is_attached(s, p):
             fails.append(f"not attached({p},_,_)")
         fails.extend(self.join_failures(s, p, q))
-        if self.free_point(s, p, q) != c:
+        if q in self.f.points_checked:
+            if self.arm_point(s, m, p, q) != c:
+                fails.append(f"the first open point of {q} that {m} reaches is {c}")
+        elif self.free_point(s, p, q) != c:
             fails.append(f"freePoint({p},{q},{c})")
+        stands = self.stands_at(s, q)
+        if stands is not None and (m, *stands) not in self.f.point_reach:
+            fails.append(f"pointReach({m},{stands[0]},{stands[1]})")
         if any(t[2] == q for t in self.tasks(s)):
             fails.append(f"no pending task with second argument {q}")
         if any(y[0] == "holding" and y[1] != m and y[2] == q for y in s):
@@ -437,7 +483,7 @@ class Domain:
             return {} if self.table is None else self.table.sense_outcomes(s, n, p)
         if n == "humanAttachingWhere":
             done = {(t, p, q) for t in TASKS} | hand | self.settled(p)
-            c = self.free_point(s, p, q)
+            c = self.human_point(s, p, q)
             return {} if c is None else {c: (s - done) | {("attached", p, q, c), HUMAN_FREE}}
         if n == "confirmAttach":
             return {"yes": s | {("wantToAttach", p, q)}, "no": s | {("reserved", p)}}

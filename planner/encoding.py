@@ -22,6 +22,7 @@ CONCERNS = (
     "feasibility",
     "goal",
     "milestones",
+    "lookahead",
     "preferences",
 )
 

@@ -84,6 +84,17 @@ def feasible_pairs(
     return pairs, time.perf_counter() - t0
 
 
+def point_facts(scenario: Scenario, checks: BenchChecks | None) -> list[str]:
+    """The facts of the fixed parts' points the arms reach (feasibility.lp), from
+    geometry, where the scenario asks for them (`[feasibility] points = "each"`)."""
+    if checks is None or scenario.feasibility.points != "each":
+        return []
+    answers = checks.point_answers()
+    facts = {f"pointsChecked({site.part})" for _, site in answers}
+    facts |= {f"pointReach({arm},{s.part},{s.point})" for (arm, s), ok in answers.items() if ok}
+    return sorted(facts)
+
+
 def plan_scenario(
     scenario: Scenario,
     *,
@@ -145,7 +156,7 @@ def _plan(
     reachable, checks_s = feasible_pairs(scenario, checks)
     # A cause found before the search is an answer in microseconds, not minutes.
     diagnosis.check(scenario, reachable)
-    facts = scenario.facts(reachable)
+    facts = sorted([*scenario.facts(reachable), *point_facts(scenario, checks)])
     if start is not None:
         facts = [*facts, "resumed"]  # conversation.lp: the robot has greeted already
     problem = Problem(

@@ -111,6 +111,17 @@ class Feasibility(StrictModel):
     source: Literal["declared", "geometry"] = "geometry"
     reachable: dict[str, list[str]] = {}
     unreachable_parts: dict[str, list[str]] = {}
+    # "nearest": an arm reaches the top if it reaches its nearest point, and plans
+    # name whichever free point; "each": every arm's reach of every point of a
+    # fixed part is checked, and plans put parts only where the arm reaches
+    # (asp/feasibility.lp, asp/lookahead.lp): exact motions, longer planning.
+    points: Literal["nearest", "each"] = "nearest"
+
+    @model_validator(mode="after")
+    def _points_need_geometry(self) -> Feasibility:
+        if self.points == "each" and self.source != "geometry":
+            raise ValueError('points = "each" needs source = "geometry"')
+        return self
 
     @model_validator(mode="before")
     @classmethod

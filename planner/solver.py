@@ -83,7 +83,7 @@ class BranchSolver:
 
     def _step_program(self) -> tuple[clingo.Control, dict[str, int]]:
         if self._step is None:
-            step_skip = tuple(sorted({*self.skip, "milestones", "preferences"}))
+            step_skip = tuple(sorted({*self.skip, "milestones", "lookahead", "preferences"}))
             ctl = ground(self.facts, 1, self.context, skip=step_skip)
             ctl.configuration.solve.models = 0  # type: ignore[union-attr]
             if PLANNED in self.facts:

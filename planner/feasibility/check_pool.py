@@ -25,7 +25,7 @@ from planner.feasibility.reach import ReachDecision, ReachResult, Reason, World
 from planner.scenario_model import Scenario
 
 Config = list[float]
-Pair = tuple[str, str]  # arm, part
+Pair = tuple[str, str]  # arm, and a part id or a Site's text ("top@c2")
 
 _world: World | None = None
 _setup: tuple[Scenario, dict[str, Any]] | None = None
@@ -55,7 +55,9 @@ def _decide_then_finish() -> dict[Pair, ReachResult]:
     world = _own_world()
     mine: list[tuple[Pair, ReachDecision]] = []
     while (pair := _pairs.get()) is not None:
-        decision = world.decide_reach(*pair)
+        arm, target = pair
+        part, _, point = target.partition("@")
+        decision = world.decide_reach(arm, part, point or None)
         _decided.put((pair, decision.reachable, decision.reason))
         mine.append((pair, decision))
     _go.wait()

@@ -108,26 +108,54 @@ class BenchChecks:
 
     def answers(self) -> dict[Pair, bool]:
         """Whether each arm reaches each part (every pair, in file order), without
-        waiting for the paths of the pool's checks."""
+        waiting for the paths of the pool's checks. The points of fixed parts
+        (`point_answers`) are decided in the same batch."""
         pairs = self.pairs()
+        points = [(arm, str(site)) for arm, site in self.point_sites()]
         todo = []
-        for arm, part in pairs:
-            if (arm, part) in self._reach or (arm, part) in self._decided:
+        for arm, target in pairs + points:
+            if (arm, target) in self._decided or self._known(arm, target):
                 continue
-            stored = self.cache.get(f"{self.key}/reach/{arm}/{part}")
-            if stored is not None:
-                self._reach[(arm, part)] = ReachResult(**stored)
-            else:
-                todo.append((arm, part))
+            todo.append((arm, target))
         if todo and self.pool is not None:
             batches = self.pool.decide(todo)
             self._batches.extend(batches)
             for pair, reachable, reason in self.pool.decisions(len(todo), batches):
                 self._decided[pair] = (reachable, reason)
-        return {
-            pair: self._decided[pair][0] if pair in self._decided else self.reach(*pair).reachable
-            for pair in pairs
-        }
+        return {pair: self._answer(*pair) for pair in pairs}
+
+    def point_sites(self) -> list[tuple[str, Site]]:
+        """Every (arm, point of a fixed part) pair, in file order: where an attachment
+        onto the top lands, and where whatever is attached there stands."""
+        if self.scenario.feasibility.points != "each":
+            return []  # the top is reached by its nearest point (scene.PartBox.work_point)
+        arms = self.scenario.robot.manipulators
+        fixed = [p for p in self.scenario.parts if not p.movable and p.connection_points]
+        return [(arm, Site(p.id, c)) for arm in arms for p in fixed for c in p.connection_points]
+
+    def point_answers(self) -> dict[tuple[str, Site], bool]:
+        """Whether each arm reaches each point of a fixed part (decided with `answers`)."""
+        self.answers()
+        return {(arm, site): self._answer(arm, str(site)) for arm, site in self.point_sites()}
+
+    def _known(self, arm: str, target: str) -> bool:
+        """Whether the answer for `target` (a part id or a Site's text) is at hand or
+        cached; a cached one is kept."""
+        site = _site(target)
+        if site is not None:
+            return self.site_known(arm, site)
+        if (arm, target) in self._reach:
+            return True
+        stored = self.cache.get(f"{self.key}/reach/{arm}/{target}")
+        if stored is not None:
+            self._reach[(arm, target)] = ReachResult(**stored)
+        return stored is not None
+
+    def _answer(self, arm: str, target: str) -> bool:
+        if (arm, target) in self._decided:
+            return self._decided[(arm, target)][0]
+        site = _site(target)
+        return (self.reach(arm, target) if site is None else self.reach_site(arm, site)).reachable
 
     def release_paths(self) -> None:
         """The pool may now simplify the paths of the answers it gave (until then it
@@ -150,7 +178,11 @@ class BenchChecks:
         for pair in list(self._decided):
             result = done[pair]
             self.cache.put(f"{self.key}/reach/{pair[0]}/{pair[1]}", result.__dict__)
-            self._reach[pair] = result
+            site = _site(pair[1])
+            if site is None:
+                self._reach[pair] = result
+            else:
+                self._site_reach[(pair[0], site)] = result
         self._decided.clear()
 
     def pairs(self) -> list[tuple[str, str]]:
@@ -164,8 +196,9 @@ class BenchChecks:
         return {pair: self.reach(*pair) for pair in self.pairs()}
 
     def site_known(self, arm: str, site: Site) -> bool:
-        """Whether `reach_site(arm, site)` is answered without a check (known or cached)."""
-        if (arm, site) in self._site_reach:
+        """Whether `reach_site(arm, site)` is answered without a check (known, decided
+        in the pool, or cached)."""
+        if (arm, site) in self._site_reach or (arm, str(site)) in self._decided:
             return True
         stored = self.cache.get(f"{self.key}/reach/{arm}/{site}")
         if stored is not None:
@@ -174,6 +207,8 @@ class BenchChecks:
 
     def reach_site(self, arm: str, site: Site) -> ReachResult:
         """Can `arm` reach `site` from home, top-down as it reaches a work point?"""
+        if (arm, str(site)) in self._decided:
+            self._collect()
         if (arm, site) in self._site_reach:
             return self._site_reach[(arm, site)]
         key = f"{self.key}/reach/{arm}/{site}"
@@ -242,3 +277,9 @@ class BenchChecks:
 def _touched(*places: Place) -> frozenset[str]:
     """The parts the gripper may touch on a move between `places`."""
     return frozenset(p if isinstance(p, str) else p.part for p in places)
+
+
+def _site(target: str) -> Site | None:
+    """The Site a pool target names ("top@c2"), or None for a part id."""
+    part, at, point = target.partition("@")
+    return Site(part, point) if at else None
