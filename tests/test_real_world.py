@@ -12,6 +12,7 @@ import pytest
 from app.execution import Executor
 from app.outcomes import RandomSource
 from planner.audit import audit
+from planner.audit_slots import slot_problems
 from planner.plan import Plan
 from planner.planning import plan_scenario
 from planner.scenario import load_scenario
@@ -79,6 +80,8 @@ def test_it_plans_passes_the_audit_and_every_random_run_reaches_the_goal(
 ) -> None:
     plan = real_world_plan
     assert audit(plan.to_json()) == []
+    # Planned by points (`points = "each"`): every motion ends where its state says.
+    assert slot_problems(plan.to_json(), load_scenario(REAL_WORLD)) == []
     stats = plan.statistics
     assert stats["K"] > 0 and stats["O"] > 0 and stats["CF"] > 0 and stats["W"] > 0
     assert stats["S"] > 0
