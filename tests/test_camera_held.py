@@ -19,20 +19,16 @@ import pytest
 from app.bench_world import hands_x
 from app.camera_bench import bench_layout, code_side, payloads, sim_scene
 from app.camera_input import SIM_SIZE
-from app.camera_source import CameraSource
-from app.execution import Executor
-from app.outcomes import FallbackSource, RandomSource
-from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from app.simulated_human import SimulatedWorld
 from perception import paper_bench
 from perception.intrinsics import CameraIntrinsics
-from perception.pipeline import BenchPerception
 from perception.pose import CameraPose
-from perception.sim import SimulatedCamera, overhead
+from perception.sim import overhead
 from planner.feasibility.scene import part_boxes
-from planner.plan import Plan
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
 from planner.vocabulary import SenseHumanHolding, SenseHumanHoldingWhichPart
+from tests.camera_runs import CameraRun
 from tests.plan_fixtures import SCENARIOS, plan_of
 
 REAL_WORLD = SCENARIOS / "real-world.toml"
@@ -118,25 +114,12 @@ def test_a_longer_bench_moves_the_hands_and_raises_the_camera() -> None:
     assert min(margins.values()) >= MARGIN_PX, margins
 
 
-class Run:
-    def __init__(self, scenario: Scenario, plan: Plan, seed: int) -> None:
-        layout = bench_layout(scenario)
-        self.camera = StillSimulatedCamera(SimulatedCamera(sim_scene(scenario), size=SIM_SIZE))
-        self.world = SimulatedWorld(part_boxes(scenario), layout, self.camera)
-        self.human = SimulatedHuman(plan, self.world, seed)
-        perception = BenchPerception(self.camera.camera.intrinsics, layout)
-        self.source = CameraSource(self.camera, perception, self.human)
-        self.executor = Executor(
-            plan, FallbackSource(self.source, RandomSource(seed)), [self.human.on_event]
-        )
-
-
 def test_the_camera_sees_what_the_human_holds_in_the_real_world_task() -> None:
     scenario, plan = load_scenario(REAL_WORLD), plan_of(REAL_WORLD)
     seen: collections.Counter[tuple[str, str]] = collections.Counter()
     wrong: list[tuple[int, str, str | None, str]] = []
     for seed in SEEDS:
-        run = Run(scenario, plan, seed)
+        run = CameraRun(scenario, plan, seed)
         try:
             assert run.executor.run() == "goal", seed
         finally:

@@ -11,22 +11,16 @@ from pathlib import Path
 import pytest
 
 from app.camera_bench import bench_layout, sim_scene
-from app.camera_source import CameraSource, belief_words, outcome_of
-from app.execution import Executor
-from app.outcomes import FallbackSource, RandomSource
-from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
-from perception.pipeline import BenchPerception
-from perception.sim import SimulatedCamera
-from planner.feasibility.scene import part_boxes
+from app.camera_source import belief_words, outcome_of
 from planner.plan import Plan
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
 from planner.vocabulary import SenseShapeOf
+from tests.camera_runs import CameraRun
 from tests.plan_fixtures import SCENARIOS, plan_of
 
 REAL_WORLD = SCENARIOS / "real-world.toml"
 SEEDS = range(12)
-RENDER_SIZE = (640, 640)  # as `--responses camera:sim` renders
 
 
 @pytest.fixture(scope="module")
@@ -37,22 +31,6 @@ def scenario() -> Scenario:
 @pytest.fixture(scope="module")
 def plan() -> Plan:
     return plan_of(REAL_WORLD)
-
-
-class Run:
-    def __init__(self, scenario: Scenario, plan: Plan, seed: int) -> None:
-        layout = bench_layout(scenario)
-        self.camera = StillSimulatedCamera(SimulatedCamera(sim_scene(scenario), size=RENDER_SIZE))
-        self.world = SimulatedWorld(part_boxes(scenario), layout, self.camera)
-        self.human = SimulatedHuman(plan, self.world, seed)
-        perception = BenchPerception(self.camera.camera.intrinsics, layout)
-        self.source = CameraSource(self.camera, perception, self.human)
-        self.executor = Executor(
-            plan, FallbackSource(self.source, RandomSource(seed)), [self.human.on_event]
-        )
-
-    def close(self) -> None:
-        self.camera.close()
 
 
 def test_the_layout_puts_an_unknown_foots_code_beside_its_face(scenario: Scenario) -> None:
@@ -76,7 +54,7 @@ def test_the_camera_reads_every_look_at_a_shape_as_the_world_is(
 ) -> None:
     seen: collections.Counter[tuple[str, str]] = collections.Counter()
     for seed in SEEDS:
-        run = Run(scenario, plan, seed)
+        run = CameraRun(scenario, plan, seed)
         try:
             assert run.executor.run() == "goal", seed
         finally:
@@ -105,7 +83,7 @@ def test_the_camera_reads_every_look_at_a_shape_as_the_world_is(
 def test_a_click_for_another_shape_swaps_the_part_and_the_camera_sees_it(
     scenario: Scenario, plan: Plan
 ) -> None:
-    run = Run(scenario, plan, seed=0)
+    run = CameraRun(scenario, plan, seed=0)
     try:
         node_id, node = next(
             (i, n) for i, n in plan.nodes.items() if n.action == SenseShapeOf("foot3")

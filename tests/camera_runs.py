@@ -1,0 +1,32 @@
+"""One execution answered by the simulated camera while a seeded simulated human
+acts out the plan (what `--responses camera:sim` wires up), for the camera tests."""
+
+from __future__ import annotations
+
+from app.camera_bench import bench_layout, sim_scene
+from app.camera_input import SIM_SIZE
+from app.camera_source import CameraSource
+from app.execution import Executor
+from app.outcomes import FallbackSource, RandomSource
+from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from perception.pipeline import BenchPerception
+from perception.sim import SimulatedCamera
+from planner.feasibility.scene import part_boxes
+from planner.plan import Plan
+from planner.scenario_model import Scenario
+
+
+class CameraRun:
+    def __init__(self, scenario: Scenario, plan: Plan, seed: int) -> None:
+        layout = bench_layout(scenario)
+        self.camera = StillSimulatedCamera(SimulatedCamera(sim_scene(scenario), size=SIM_SIZE))
+        self.world = SimulatedWorld(part_boxes(scenario), layout, self.camera)
+        self.human = SimulatedHuman(plan, self.world, seed)
+        perception = BenchPerception(self.camera.camera.intrinsics, layout)
+        self.source = CameraSource(self.camera, perception, self.human)
+        self.executor = Executor(
+            plan, FallbackSource(self.source, RandomSource(seed)), [self.human.on_event]
+        )
+
+    def close(self) -> None:
+        self.camera.close()
