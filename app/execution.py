@@ -26,7 +26,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal, Protocol
 
 from app.outcomes import Evidence, Outcome, OutcomeError, OutcomeSource, describe
@@ -272,6 +272,7 @@ class Executor:
                     outcome = self._ask(node_id, node, options)
                 except _Aborted:
                     return "aborted"
+                outcome = self._point_surprise(node, outcome)
                 if outcome.surprise is not None:
                     repaired = self._repair(node_id, node, outcome)
                     if repaired is not None:
@@ -361,6 +362,24 @@ class Executor:
             raise OutcomeError(f"{node.action} at {node_id}: {err}") from None
         slot = {"onto": action.onto, "branch": outcome.label, "used": outcome.slot, "real": real}
         return Evidence({"slot": slot, "slots": self.slots.to_json()})
+
+    def _point_surprise(self, node: PlanNode, outcome: Outcome) -> Outcome:
+        """Where the plan puts parts by points (`points = "each"`, facts
+        `pointsChecked`), its later motions and arms count on the point the branch
+        names: the human's attach at another one is a surprise to plan again from,
+        not a name to map (only when this execution can plan again)."""
+        action = node.action
+        if (
+            self.repairing is None
+            or outcome.slot is None
+            or outcome.slot == outcome.label
+            or not isinstance(action, SenseHumanAttachingWhere)
+            or f"pointsChecked({action.onto})" not in self.plan.facts
+            or outcome.slot not in self.slot_choices(node)  # refused as before
+        ):
+            return outcome
+        real = self.slots.real(action.onto, outcome.slot)
+        return replace(outcome, surprise=Surprise("attach", (action.part, action.onto, real)))
 
     def slot_choices(self, node: PlanNode) -> list[str]:
         """Where the human can attach at a humanAttachingWhere node: the free points, in

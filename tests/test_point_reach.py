@@ -6,16 +6,24 @@ every point of the top, and the plan puts parts only where the acting arm reache
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 from typing import Any
 
 import pytest
 
+from app.execution import Executor
+from app.outcomes import ExpectedSource, FallbackSource, ScriptedSource
+from app.repair import REPAIR, Repairer
+from app.retargeting import retargeter_for
 from planner.audit import audit
 from planner.audit_slots import slot_problems
+from planner.plan import Plan
 from planner.planning import plan_scenario
 from planner.scenario import ScenarioError, parse_scenario
 from planner.scenario_model import Scenario
+from planner.vocabulary import SenseHumanAttachingWhere
 from tests.plan_fixtures import SCENARIOS
+from tests.test_slots import _script_to_choice
 
 GEOMETRY = 'source = "geometry"'
 
@@ -68,3 +76,32 @@ def test_points_each_needs_geometry() -> None:
     text = text.replace('source = "declared"', 'source = "declared"\npoints = "each"')
     with pytest.raises(ScenarioError, match="points"):
         parse_scenario(text, "d.toml")
+
+
+def test_a_human_at_another_point_makes_the_robot_plan_again_from_it(
+    each: tuple[Scenario, dict[str, Any]], tmp_path: Path
+) -> None:
+    scenario, doc = each
+    plan = Plan.from_json(doc)
+    labels, where_id, branch, other = _script_to_choice(plan)
+    script = tmp_path / "responses.txt"
+    script.write_text("\n".join([*labels, other, ""]))
+    repairer = Repairer(scenario, lambda _plan: "kept")  # no store: the hash is not used
+    executor = Executor(
+        plan,
+        FallbackSource(ScriptedSource(script), ExpectedSource()),
+        repairing=repairer.repair,
+        retarget=retargeter_for(scenario, plan),
+    )
+    assert executor.run() == "goal"
+    # Not mapped onto the branch's point: planned again from the point really used.
+    repairs = [e for e in executor.events if e.kind == REPAIR]
+    assert [e.node for e in repairs] == [where_id]
+    assert repairs[0].evidence is not None
+    where = plan.nodes[where_id].action
+    assert isinstance(where, SenseHumanAttachingWhere)
+    seen = f"attached({where.part},{where.onto},{other})"
+    assert seen in repairs[0].evidence.detail["observed"] and branch != other
+    # The new plan puts every later motion where its state says.
+    assert audit(executor.plan.to_json()) == []
+    assert slot_problems(executor.plan.to_json(), scenario) == []
