@@ -14,7 +14,7 @@ import time
 from collections import Counter
 from dataclasses import dataclass, field, replace
 
-from perception.codes_image import QUIET_ZONE_MODULES, modules_across
+from perception.codes_image import printed_side
 from perception.frames import Image
 from perception.layout import BenchLayout, PartShape, Region
 from perception.markers import DEFAULT_MARKER_SIZE_M, PartCode, corner_references, encode_part
@@ -48,8 +48,7 @@ def kind(part_id: str) -> str:
 def _code_offset(part_id: str, marker: int, side: float) -> tuple[float, float]:
     # As the app puts them: a leg's code a code's width along x from its foot point;
     # a foot's on a card beside its face, 1 cm clear, towards -y.
-    modules = modules_across(encode_part(part_id, marker))
-    card = DEFAULT_MARKER_SIZE_M * (modules + 2 * QUIET_ZONE_MODULES) / modules
+    card = printed_side(encode_part(part_id, marker), DEFAULT_MARKER_SIZE_M)
     if kind(part_id) == "leg":
         return (card + 0.005, 0.0)
     return (0.0, -(side / 2 + 0.01 + card / 2))

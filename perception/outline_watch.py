@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections import Counter, deque
 from functools import cache
 
-from perception.codes_image import QUIET_ZONE_MODULES, modules_across
+from perception.codes_image import printed_side
 from perception.frames import Image
 from perception.layout import BenchLayout
 from perception.markers import PartCode, encode_part
@@ -22,9 +22,8 @@ from perception.outline import FaceView, OutlineEstimate, OutlineReading, read_o
 
 @cache
 def _card_side(part_id: str, marker_id: int, marker_size_m: float) -> float:
-    """The printed square of a part's code, quiet zone included."""
-    modules = modules_across(encode_part(part_id, marker_id))
-    return marker_size_m * (modules + 2 * QUIET_ZONE_MODULES) / modules
+    """The printed square of a part's code, quiet zone included (cached: every frame)."""
+    return printed_side(encode_part(part_id, marker_id), marker_size_m)
 
 
 class OutlineWatch:
