@@ -189,15 +189,22 @@ class Domain:
     def loose(self, s: State, p: str) -> bool:
         return not self.is_attached(s, p) and not any(x[0] == "holding" and x[2] == p for x in s)
 
-    def root(self, s: State, q: str) -> str:
+    def chain(self, s: State, q: str) -> list[tuple[str, str]]:
+        """(part, point) of each attachment down from Q to the part attached to nothing."""
+        steps: list[tuple[str, str]] = []
         seen = {q}
         while True:
-            up = sorted(x[2] for x in s if x[0] == "attached" and x[1] == q)
+            up = sorted((x[2], x[3]) for x in s if x[0] == "attached" and x[1] == q)
             # The visited set guards against attachment cycles in a bad state.
-            if not up or up[0] in seen:
-                return q
-            q = up[0]
+            if not up or up[0][0] in seen:
+                return steps
+            steps.append(up[0])
+            q = up[0][0]
             seen.add(q)
+
+    def root(self, s: State, q: str) -> str:
+        steps = self.chain(s, q)
+        return steps[-1][0] if steps else q
 
     def in_reach(self, p: str) -> bool:
         return self.f.loc.get(p) in self.f.human_reach
@@ -255,18 +262,13 @@ class Domain:
         points = self.open_points(s, p, q)
         return min(points, key=lambda c: (-self.arms_at(q, c), term_order(c)), default=None)
 
-    def stands_at(self, s: State, q: str) -> tuple[str, str] | None:
-        """(R, C) when Q is attached, down its chain, at point C of a fixed part R
-        whose points were checked: whoever works on Q works at that point."""
-        seen = {q}
-        while True:
-            up = sorted((x[2], x[3]) for x in s if x[0] == "attached" and x[1] == q)
-            if not up or up[0][0] in seen:
-                return None
-            if up[0][0] in self.f.points_checked:
-                return up[0]
-            q = up[0][0]
-            seen.add(q)
+    def point_failures(self, s: State, m: str, q: str) -> list[str]:
+        """Why M cannot work on Q where it stands: Q attached, down its chain, at
+        point C of a fixed part R whose points were checked, which M does not reach."""
+        stands = next((st for st in self.chain(s, q) if st[0] in self.f.points_checked), None)
+        if stands is None or (m, *stands) in self.f.point_reach:
+            return []
+        return [f"pointReach({m},{stands[0]},{stands[1]})"]
 
     def still_needed(self, s: State, p: str) -> bool:
         if self.table is not None:
@@ -371,9 +373,7 @@ class Domain:
             if held:
                 h = held[0]
                 carries = any(y[0] == "attached" and y[2] == h for y in s)
-                stands = self.stands_at(s, h)
-                if stands is not None and (x[0], *stands) not in f.point_reach:
-                    fails.append(f"pointReach({x[0]},{stands[0]},{stands[1]})")
+                fails.extend(self.point_failures(s, x[0], h))
                 if f.points_checked:
                     need(self.is_attached(s, h), f"attached({h},_,_)")
                 else:
@@ -423,12 +423,10 @@ class Domain:
         fails.extend(self.join_failures(s, p, q))
         if q in self.f.points_checked:
             if self.arm_point(s, m, p, q) != c:
-                fails.append(f"the first open point of {q} that {m} reaches is {c}")
+                fails.append(f"armPoint({m},{p},{q},{c})")
         elif self.free_point(s, p, q) != c:
             fails.append(f"freePoint({p},{q},{c})")
-        stands = self.stands_at(s, q)
-        if stands is not None and (m, *stands) not in self.f.point_reach:
-            fails.append(f"pointReach({m},{stands[0]},{stands[1]})")
+        fails.extend(self.point_failures(s, m, q))
         if any(t[2] == q for t in self.tasks(s)):
             fails.append(f"no pending task with second argument {q}")
         if any(y[0] == "holding" and y[1] != m and y[2] == q for y in s):

@@ -68,7 +68,8 @@ def test_only_an_arm_that_reaches_a_point_attaches_there(
     node_id, action = next((n, a) for n, a in onto_top if a.startswith("attach(right,top,c3)"))
     broken = copy.deepcopy(doc)
     broken["nodes"][node_id]["action"] = action.replace("right", "left")
-    assert any(v.node == node_id for v in audit(broken))
+    said = [v.message for v in audit(broken) if v.node == node_id]
+    assert any("armPoint(left," in m and ",top,c3)" in m for m in said), said
 
 
 def test_points_each_needs_geometry() -> None:
