@@ -238,23 +238,30 @@ def _motion_prefetch(
 
     backlog: list[DagNode] = []
 
-    def known(action: Attach, state: State) -> bool:
-        # An attach ends at a slot's site: only where that reach is already answered,
-        # since `endpoints` would otherwise check it here, in the planning loop.
-        site = site_of(Hands.of(state).attached, action.onto, action.slot)
-        return checks.site_known(action.arm, site)
-
     def prefetch(planned: list[DagNode]) -> None:
         backlog.extend(n for n in planned if isinstance(n.action, Attach))
         if not backlog or not first_branch or not checks.paths_ready():
             return
-        moves = [
-            endpoints(n.action, sorted(n.state), checks)
+        attaches = [
+            (
+                n,
+                n.action,
+                (n.action.arm, site_of(Hands.of(n.state).attached, n.action.onto, n.action.slot)),
+            )
             for n in backlog
-            # (not an attach any more: replanned after a dead end)
-            if isinstance(n.action, Attach) and known(n.action, n.state)
+            if isinstance(n.action, Attach)  # (not any more: replanned after a dead end)
         ]
         backlog.clear()
+        # An attach ends at a slot's site, whose reach is asked of the pool: `endpoints`
+        # would otherwise check it here, in the planning loop. Until it is answered, the
+        # node waits for the next round.
+        checks.prefetch_sites(where for _, _, where in attaches)
+        moves = []
+        for node, action, where in attaches:
+            if checks.site_known(*where):
+                moves.append(endpoints(action, sorted(node.state), checks))
+            else:
+                backlog.append(node)
         checks.prefetch_moves((arm, a, b) for arm, a, b in moves if a is not None and b)
 
     return prefetch

@@ -34,9 +34,7 @@ _decided: Any = None  # (pair, reachable, reason) back to the parent, as decided
 _go: Any = None  # set when the paths may be simplified
 
 
-def _init(
-    scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any, go: Any
-) -> None:
+def _init(scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any, go: Any) -> None:
     global _setup, _world, _pairs, _decided, _go
     _setup, _world = (scenario, options), None
     _pairs, _decided, _go = pairs, decided, go
@@ -62,6 +60,11 @@ def _decide_then_finish() -> dict[Pair, ReachResult]:
         mine.append((pair, decision))
     _go.wait()
     return {pair: world.finish_reach(decision) for pair, decision in mine}
+
+
+def _reach(arm: str, target: str) -> ReachResult:
+    part, _, point = target.partition("@")
+    return _own_world().check_reach(arm, part, point or None)
 
 
 def _move(arm: str, start: Config, goal: Config, parts: frozenset[str]) -> list[Config] | None:
@@ -120,6 +123,10 @@ class CheckPool:
                         if batch.done() and batch.exception() is not None:
                             raise RuntimeError("a check process failed") from batch.exception()
             yield pair, reachable, reason
+
+    def reach(self, arm: str, target: str) -> Future[ReachResult]:
+        """One reach check with its path, outside any batch (a part id or a Site's text)."""
+        return self._pool.submit(_reach, arm, target)
 
     def move(
         self, arm: str, start: Config, goal: Config, parts: frozenset[str]

@@ -60,6 +60,7 @@ class BenchChecks:
         self._decided: dict[Pair, tuple[bool, Reason]] = {}
         self._batches: list[Future[dict[Pair, ReachResult]]] = []
         self._move_pending: dict[Move, Future[list[Config] | None]] = {}
+        self._site_pending: dict[tuple[str, Site], Future[ReachResult]] = {}
 
     @property
     def world(self) -> World:
@@ -200,6 +201,9 @@ class BenchChecks:
         in the pool, or cached)."""
         if (arm, site) in self._site_reach or (arm, str(site)) in self._decided:
             return True
+        pending = self._site_pending.get((arm, site))
+        if pending is not None:
+            return pending.done()
         stored = self.cache.get(f"{self.key}/reach/{arm}/{site}")
         if stored is not None:
             self._site_reach[(arm, site)] = ReachResult(**stored)
@@ -212,14 +216,29 @@ class BenchChecks:
         if (arm, site) in self._site_reach:
             return self._site_reach[(arm, site)]
         key = f"{self.key}/reach/{arm}/{site}"
-        stored = self.cache.get(key)
+        pending = self._site_pending.pop((arm, site), None)
+        stored = self.cache.get(key) if pending is None else None
         if stored is not None:
             result = ReachResult(**stored)
         else:
-            result = self.world.check_reach(arm, site.part, site.point)
+            result = (
+                pending.result()
+                if pending is not None
+                else self.world.check_reach(arm, site.part, site.point)
+            )
             self.cache.put(key, result.__dict__)
         self._site_reach[(arm, site)] = result
         return result
+
+    def prefetch_sites(self, sites: Iterable[tuple[str, Site]]) -> None:
+        """Starts the reach checks of `sites` not answered yet, in the pool, side by
+        side (`reach_site` then takes them from there)."""
+        for arm, site in sites:
+            if (arm, site) in self._site_pending or self.site_known(arm, site):
+                continue
+            if self.pool is None:
+                return
+            self._site_pending[(arm, site)] = self.pool.reach(arm, str(site))
 
     def at(self, arm: str, place: Place | None) -> Config:
         """Where `arm` stands when working at `place` (None: home)."""

@@ -20,6 +20,7 @@ world's slots differ from those a node assumes (the human used another one).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Iterator
 
 from planner.feasibility.arms import joint_names
 from planner.feasibility.checks import BenchChecks, Place
@@ -38,6 +39,11 @@ def add_motions(plan: Plan, checks: BenchChecks) -> int:
     motions the plan uses. A node whose motion assumes slots other than its names
     (the robot took another free slot on the way: planner.feasibility.slot_map) keeps that map
     as `slots`."""
+    # The slots' reach checks go to the pool side by side, before the walk below asks
+    # for them one by one.
+    checks.prefetch_sites(
+        site for node in plan.nodes.values() for site in slot_sites(node.action, node.state)
+    )
     maps, choices = _slot_maps(plan, checks)
     nodes = []
     for node_id, node in plan.nodes.items():
@@ -61,8 +67,26 @@ def add_motions(plan: Plan, checks: BenchChecks) -> int:
     for node, ends in nodes:
         if ends not in seen:
             seen[ends] = _motion(ends, checks)
-        node.motion = seen[ends].model_copy(deep=True)
+        node.motion = _copy(seen[ends])
     return len(seen)
+
+
+def _copy(motion: Motion) -> Motion:
+    """A node's own copy of a shared motion (pydantic's deep copy is 50x slower)."""
+    return Motion.model_construct(
+        arm=motion.arm, joints=list(motion.joints), path=[list(q) for q in motion.path]
+    )
+
+
+def slot_sites(action: Action | None, state: list[str]) -> Iterator[tuple[str, Site]]:
+    """The (arm, site) whose reach `endpoints` asks for, with the slots the plan names."""
+    hands = Hands.of(state)
+    match action:
+        case Attach(arm, onto, point):
+            yield arm, site_of(hands.attached, onto, point)
+        case Unhold(arm) if hands.holding[arm] in hands.attached:
+            onto, point = hands.attached[hands.holding[arm]]
+            yield arm, site_of(hands.attached, onto, point)
 
 
 def _slot_maps(
