@@ -80,6 +80,8 @@ class BranchSolver:
         # longer horizons only plan and never list outcomes.
         self._step: tuple[clingo.Control, dict[str, int]] | None = None
         self._occ: dict[str, int | None] = {}
+        # What each shown symbol of a model says (`_meaning`), decoded once.
+        self._shown: dict[clingo.Symbol, tuple[str, int, str]] = {}
 
     def _step_program(self) -> tuple[clingo.Control, dict[str, int]]:
         if self._step is None:
@@ -118,16 +120,22 @@ class BranchSolver:
         assumptions.append(occ)
         found: list[Successor] = []
 
+        shown = self._shown
+
         def on_model(model: clingo.Model) -> None:
             label: str | None = None
             after: set[str] = set()
             goal = False
             for sym in model.symbols(shown=True):
-                if sym.name == "out":
-                    label = str(sym.arguments[1])
-                elif sym.name == "h" and sym.arguments[1].number == 1:
-                    after.add(str(sym.arguments[0]))
-                elif sym.name == "goalAt" and sym.arguments[0].number == 1:
+                meaning = shown.get(sym)
+                if meaning is None:
+                    meaning = shown[sym] = _meaning(sym)
+                kind, t, text = meaning
+                if kind == "out":
+                    label = text
+                elif kind == "h" and t == 1:
+                    after.add(text)
+                elif kind == "goalAt" and t == 1:
                     goal = True
             found.append(Successor(label, frozenset(after), goal))
 
@@ -148,22 +156,20 @@ class BranchSolver:
         actions: dict[int, str] = {}
         chosen: dict[int, str] = {}
         goals: set[int] = set()
-        # The shown atoms' text is split by hand, the one place that does: reading
-        # arguments through the C API is the slowest part of decoding a model. The
-        # pieces are canonical term texts, typed by `parse_action` (cached).
-        for text in map(str, symbols):
-            if text.startswith("goalAt("):
-                goals.add(int(text[7:-1]))
-                continue
-            head, _, time_text = text[:-1].rpartition(",")
-            t = int(time_text)
-            if text.startswith("h("):
-                states.setdefault(t, set()).add(head[2:])
-            elif text.startswith("occ("):
-                actions[t] = head[4:]
-            elif text.startswith("out("):
-                action, _, label = head[4:].rpartition(",")
-                chosen[t] = label
+        shown = self._shown
+        for sym in symbols:
+            meaning = shown.get(sym)
+            if meaning is None:
+                meaning = shown[sym] = _meaning(sym)
+            kind, t, text = meaning
+            if kind == "h":
+                states.setdefault(t, set()).add(text)
+            elif kind == "occ":
+                actions[t] = text
+            elif kind == "out":
+                chosen[t] = text
+            elif kind == "goalAt":
+                goals.add(t)
         steps = [
             Step(
                 frozenset(states.get(t, set())),
@@ -175,6 +181,23 @@ class BranchSolver:
             for t in sorted(actions)
         ]
         return SequentialPlan(steps, 0 in goals)
+
+
+def _meaning(sym: clingo.Symbol) -> tuple[str, int, str]:
+    """(predicate, time, the fluent, action or outcome label as canonical text) of a
+    shown atom; ("", 0, "") for atoms the planner does not read.
+
+    Reading a symbol's arguments through the C API is the slowest part of decoding a
+    model, so `BranchSolver._shown` keeps each symbol's meaning: a symbol is read
+    once per solver, not once per model."""
+    args = sym.arguments
+    if sym.name == "goalAt":
+        return "goalAt", args[0].number, ""
+    if sym.name in ("h", "occ"):
+        return sym.name, args[1].number, str(args[0])
+    if sym.name == "out":
+        return "out", args[2].number, str(args[1])
+    return "", 0, ""
 
 
 def _externals(ctl: clingo.Control, name: str) -> dict[str, int]:
