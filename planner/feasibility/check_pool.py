@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import queue
+import threading
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from typing import Any
 
-from planner.feasibility.reach import ReachDecision, ReachResult, Reason, World
+from planner.feasibility.reach import ReachDecision, ReachResult, Reason, World, robot_only
+from planner.feasibility.robot import BaxterBody
 from planner.scenario_model import Scenario
 
 Config = list[float]
@@ -32,6 +34,10 @@ _setup: tuple[Scenario, dict[str, Any]] | None = None
 _pairs: Any = None  # the queue of pairs to decide; None marks the end of a batch
 _decided: Any = None  # (pair, reachable, reason) back to the parent, as decided
 _go: Any = None  # set when the paths may be simplified
+# Baxter loaded once per base pose in the process that makes pools, never used there:
+# the processes forked from it find the robot loaded and add only their scene.
+_robots: dict[tuple[float, ...], BaxterBody] = {}
+_robots_lock = threading.Lock()
 
 
 def _init(scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any, go: Any) -> None:
@@ -45,7 +51,8 @@ def _own_world() -> World:
     if _world is None:
         assert _setup is not None
         scenario, options = _setup
-        _world = World(scenario, **options)
+        robot = _robots.get(tuple(scenario.robot.base_pose))
+        _world = World(scenario, robot=robot, **options)
     return _world
 
 
@@ -80,6 +87,10 @@ class CheckPool:
     """`workers` processes answering `World.check_reach` and `World.move` queries."""
 
     def __init__(self, scenario: Scenario, options: dict[str, Any], workers: int) -> None:
+        with _robots_lock:
+            pose = tuple(scenario.robot.base_pose)
+            if pose not in _robots:
+                _robots[pose] = robot_only(list(pose))
         context = mp.get_context("fork")
         self._workers = workers
         self._pairs: Any = context.Queue()

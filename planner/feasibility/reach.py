@@ -80,13 +80,16 @@ class World:
         planner: PlannerName = "RRTConnect",
         time_limit: float = 1.0,
         seed: int = 0,
+        robot: BaxterBody | None = None,
     ) -> None:
+        """`robot`: Baxter already loaded on a client of its own with nothing else on it
+        (a forked copy of `robot_only`); the scene is added to that client."""
         seed_ompl(seed)
         self.seed = seed
         self.planner = planner
         self.time_limit = time_limit
-        self.client = pb.connect(pb.DIRECT)
-        self.robot: BaxterBody = load_robot(self.client, scenario.robot.base_pose)
+        self.client = pb.connect(pb.DIRECT) if robot is None else robot.client
+        self.robot: BaxterBody = robot or load_robot(self.client, scenario.robot.base_pose)
         self.scene: Scene = build_scene(self.client, scenario)
         self._body_part = {b: pid for pid, b in self.scene.bodies.items()}
         self._reach_radius = {a: self._arm_length(a) for a in ARMS}
@@ -356,4 +359,10 @@ class World:
         return length
 
 
-__all__ = ["ReachResult", "World", "seed_ompl"]
+def robot_only(base_pose: list[float]) -> BaxterBody:
+    """Baxter alone on a new client, for `World(robot=...)` in processes forked after it:
+    each of them finds the robot loaded (0.08 s) and adds only its scene."""
+    return load_robot(pb.connect(pb.DIRECT), base_pose)
+
+
+__all__ = ["ReachResult", "World", "robot_only", "seed_ompl"]
