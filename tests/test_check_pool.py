@@ -103,3 +103,27 @@ def test_motions_started_while_planning_are_those_of_one_process(tmp_path: Path)
     for doc in docs:
         doc["stats"] = {k: v for k, v in doc["stats"].items() if not k.endswith("_s")}
     assert docs[0] == docs[1]
+
+
+def test_the_pool_leaves_fixed_parts_paths_until_asked(tmp_path: Path) -> None:
+    """No motion goes to the top's work point: the pool stores its answer without a
+    path, and a path asked for later is the one a single process makes."""
+    scenario = load_scenario(PAPER_DIR / "paper-15.toml")
+    plan_scenario(scenario, workers=1, check_workers=2, cache_dir=tmp_path)
+    with CheckCache(tmp_path) as cache, BenchChecks(scenario, cache=cache) as stored:
+        answers = stored.answers()
+        assert cache.misses == 0
+        kept = {pair: cache.get(f"{stored.key}/reach/{pair[0]}/{pair[1]}") for pair in answers}
+    top = {arm: kept[(arm, "top")] for arm in ("left", "right")}
+    assert all(r is not None and r["reachable"] and r["path"] is None for r in top.values())
+    legs = [r for pair, r in kept.items() if pair[1] != "top" and r and r["reachable"]]
+    assert legs and all(r["path"] for r in legs)
+    with CheckCache(":memory:") as fresh, BenchChecks(scenario, cache=fresh) as one:
+        expected = {arm: one.reach(arm, "top").path for arm in top}
+    with CheckCache(tmp_path) as cache, BenchChecks(scenario, cache=cache) as again:
+        for arm in top:
+            made = again.reach(arm, "top")
+            assert made.path is not None and made.path == expected[arm]
+    with CheckCache(tmp_path) as cache, BenchChecks(scenario, cache=cache) as later:
+        assert later.reach("left", "top").path == expected["left"]  # cached once made
+        assert cache.misses == 0

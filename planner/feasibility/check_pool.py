@@ -66,7 +66,14 @@ def _decide_then_finish() -> dict[Pair, ReachResult]:
         _decided.put((pair, decision.reachable, decision.reason))
         mine.append((pair, decision))
     _go.wait()
-    return {pair: world.finish_reach(decision) for pair, decision in mine}
+    assert _setup is not None
+    # A fixed part is never held: no motion starts or ends at its work point (attaches
+    # go to its points' sites), so its path is not made.
+    fixed = {p.id for p in _setup[0].parts if not p.movable}
+    return {
+        pair: world.answer_only(decision) if pair[1] in fixed else world.finish_reach(decision)
+        for pair, decision in mine
+    }
 
 
 def _reach(arm: str, target: str) -> ReachResult:

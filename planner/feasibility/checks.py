@@ -92,18 +92,18 @@ class BenchChecks:
         self.close()
 
     def reach(self, arm: str, part: str) -> ReachResult:
-        """Can `arm` reach `part` from home (its work point: docs/scenario.md)?"""
+        """Can `arm` reach `part` from home (its work point: docs/scenario.md), and how?"""
         if (arm, part) in self._decided:
             self._collect()
-        if (arm, part) in self._reach:
-            return self._reach[(arm, part)]
-        key = f"{self.key}/reach/{arm}/{part}"
-        stored = self.cache.get(key)
-        if stored is not None:
-            result = ReachResult(**stored)
-        else:
+        result = self._reach.get((arm, part))
+        if result is None:
+            stored = self.cache.get(f"{self.key}/reach/{arm}/{part}")
+            result = None if stored is None else ReachResult(**stored)
+        if result is None or result.path_missing:
+            # Never checked, or answered without its path (a fixed part's, made by the
+            # pool only on demand): the check again, reseeded as it was, gives the path.
             result = self.world.check_reach(arm, part)
-            self.cache.put(key, result.__dict__)
+            self.cache.put(f"{self.key}/reach/{arm}/{part}", result.__dict__)
         self._reach[(arm, part)] = result
         return result
 
@@ -156,7 +156,11 @@ class BenchChecks:
         if (arm, target) in self._decided:
             return self._decided[(arm, target)][0]
         site = _site(target)
-        return (self.reach(arm, target) if site is None else self.reach_site(arm, site)).reachable
+        if site is not None:
+            return self.reach_site(arm, site).reachable
+        if (arm, target) not in self._reach:
+            self.reach(arm, target)
+        return self._reach[(arm, target)].reachable  # a path missing is no matter here
 
     def release_paths(self) -> None:
         """The pool may now simplify the paths of the answers it gave (until then it

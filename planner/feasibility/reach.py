@@ -67,7 +67,13 @@ class ReachResult:
     reachable: bool
     reason: Reason
     seconds: float
-    path: list[list[float]] | None  # joint configurations from home to the grasp
+    # Joint configurations from home to the grasp. None: unreachable, or a fixed part's
+    # work point whose path was not made (no motion goes there: `answer_only`).
+    path: list[list[float]] | None
+
+    @property
+    def path_missing(self) -> bool:
+        return self.reachable and self.path is None
 
 
 class World:
@@ -194,6 +200,11 @@ class World:
         self.robot.go_home()
         seconds = decision.seconds + time.perf_counter() - start
         return ReachResult(decision.reachable, decision.reason, seconds, path)
+
+    @staticmethod
+    def answer_only(decision: ReachDecision) -> ReachResult:
+        """The decided answer without its path, which `finish_reach` would make."""
+        return ReachResult(decision.reachable, decision.reason, decision.seconds, None)
 
     def move(
         self, arm: str, start: list[float], goal: list[float], parts: frozenset[str]
