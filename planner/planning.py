@@ -239,6 +239,8 @@ def _motion_prefetch(
     backlog: list[DagNode] = []
 
     def prefetch(planned: list[DagNode]) -> None:
+        if not checks.parallel:
+            return  # one process: motions are made when the plan is built
         backlog.extend(n for n in planned if isinstance(n.action, Attach))
         if not backlog or not first_branch or not checks.paths_ready():
             return

@@ -69,6 +69,11 @@ class BenchChecks:
         return self._world
 
     @property
+    def parallel(self) -> bool:
+        """Whether checks may run in a pool of processes (`prefetch_*` start them there)."""
+        return self._workers > 1
+
+    @property
     def pool(self) -> CheckPool | None:
         """The worker processes (None with one worker), started on first need."""
         if self._pool is None and self._workers > 1:
