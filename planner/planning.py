@@ -14,7 +14,7 @@ from planner import conversation, diagnosis
 from planner.hcp import INLINE_SOLVE_S, ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.plan import Plan, build_plan
 from planner.scenario import Scenario
-from planner.vocabulary import Attach, Hands, State
+from planner.vocabulary import Attach, State
 
 if TYPE_CHECKING:
     from planner.feasibility.checks import BenchChecks
@@ -233,8 +233,7 @@ def _motion_prefetch(
     Held back until the first branch exists (its planning comes first on a busy
     machine) and the reach paths are ready (a motion starts where a reach path ends,
     and planning must never wait for one)."""
-    from planner.feasibility.plan_motions import endpoints
-    from planner.feasibility.scene import site_of
+    from planner.feasibility.plan_motions import endpoints, slot_sites
 
     backlog: list[DagNode] = []
 
@@ -245,11 +244,7 @@ def _motion_prefetch(
         if not backlog or not first_branch or not checks.paths_ready():
             return
         attaches = [
-            (
-                n,
-                n.action,
-                (n.action.arm, site_of(Hands.of(n.state).attached, n.action.onto, n.action.slot)),
-            )
+            (n, n.action, next(slot_sites(n.action, sorted(n.state))))
             for n in backlog
             if isinstance(n.action, Attach)  # (not any more: replanned after a dead end)
         ]

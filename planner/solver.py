@@ -120,17 +120,12 @@ class BranchSolver:
         assumptions.append(occ)
         found: list[Successor] = []
 
-        shown = self._shown
-
         def on_model(model: clingo.Model) -> None:
             label: str | None = None
             after: set[str] = set()
             goal = False
             for sym in model.symbols(shown=True):
-                meaning = shown.get(sym)
-                if meaning is None:
-                    meaning = shown[sym] = _meaning(sym)
-                kind, t, text = meaning
+                kind, t, text = self._read(sym)
                 if kind == "out":
                     label = text
                 elif kind == "h" and t == 1:
@@ -151,17 +146,20 @@ class BranchSolver:
             self._occ[action] = atom.literal if atom is not None else None
         return self._occ[action]
 
+    def _read(self, sym: clingo.Symbol) -> tuple[str, int, str]:
+        """What a shown symbol says (`_meaning`), read once per solver."""
+        meaning = self._shown.get(sym)
+        if meaning is None:
+            meaning = self._shown[sym] = _meaning(sym)
+        return meaning
+
     def _steps(self, symbols: Sequence[clingo.Symbol]) -> SequentialPlan:
         states: dict[int, set[str]] = {}
         actions: dict[int, str] = {}
         chosen: dict[int, str] = {}
         goals: set[int] = set()
-        shown = self._shown
         for sym in symbols:
-            meaning = shown.get(sym)
-            if meaning is None:
-                meaning = shown[sym] = _meaning(sym)
-            kind, t, text = meaning
+            kind, t, text = self._read(sym)
             if kind == "h":
                 states.setdefault(t, set()).add(text)
             elif kind == "occ":
@@ -188,7 +186,7 @@ def _meaning(sym: clingo.Symbol) -> tuple[str, int, str]:
     shown atom; ("", 0, "") for atoms the planner does not read.
 
     Reading a symbol's arguments through the C API is the slowest part of decoding a
-    model, so `BranchSolver._shown` keeps each symbol's meaning: a symbol is read
+    model, so `BranchSolver._read` keeps each symbol's meaning: a symbol is read
     once per solver, not once per model."""
     args = sym.arguments
     if sym.name == "goalAt":

@@ -24,6 +24,7 @@ from typing import Any
 
 from planner.feasibility.reach import ReachDecision, ReachResult, Reason, World, robot_only
 from planner.feasibility.robot import BaxterBody
+from planner.feasibility.scene import Site
 from planner.scenario_model import Scenario
 
 Config = list[float]
@@ -61,8 +62,7 @@ def _decide_then_finish() -> dict[Pair, ReachResult]:
     mine: list[tuple[Pair, ReachDecision]] = []
     while (pair := _pairs.get()) is not None:
         arm, target = pair
-        part, _, point = target.partition("@")
-        decision = world.decide_reach(arm, part, point or None)
+        decision = world.decide_reach(arm, *_part_and_point(target))
         _decided.put((pair, decision.reachable, decision.reason))
         mine.append((pair, decision))
     _go.wait()
@@ -77,8 +77,13 @@ def _decide_then_finish() -> dict[Pair, ReachResult]:
 
 
 def _reach(arm: str, target: str) -> ReachResult:
-    part, _, point = target.partition("@")
-    return _own_world().check_reach(arm, part, point or None)
+    return _own_world().check_reach(arm, *_part_and_point(target))
+
+
+def _part_and_point(target: str) -> tuple[str, str | None]:
+    """A part id, or a Site's text: what `World.check_reach` takes."""
+    site = Site.parse(target)
+    return (target, None) if site is None else (site.part, site.point)
 
 
 def _move(arm: str, start: Config, goal: Config, parts: frozenset[str]) -> list[Config] | None:

@@ -102,13 +102,13 @@ class BenchChecks:
             self._collect()
         result = self._reach.get((arm, part))
         if result is None:
-            stored = self.cache.get(f"{self.key}/reach/{arm}/{part}")
+            stored = self.cache.get(self._reach_key(arm, part))
             result = None if stored is None else ReachResult(**stored)
         if result is None or result.path_missing:
             # Never checked, or answered without its path (a fixed part's, made by the
             # pool only on demand): the check again, reseeded as it was, gives the path.
             result = self.world.check_reach(arm, part)
-            self.cache.put(f"{self.key}/reach/{arm}/{part}", result.__dict__)
+            self.cache.put(self._reach_key(arm, part), result.__dict__)
         self._reach[(arm, part)] = result
         return result
 
@@ -147,12 +147,12 @@ class BenchChecks:
     def _known(self, arm: str, target: str) -> bool:
         """Whether the answer for `target` (a part id or a Site's text) is at hand or
         cached; a cached one is kept."""
-        site = _site(target)
+        site = Site.parse(target)
         if site is not None:
             return self.site_known(arm, site)
         if (arm, target) in self._reach:
             return True
-        stored = self.cache.get(f"{self.key}/reach/{arm}/{target}")
+        stored = self.cache.get(self._reach_key(arm, target))
         if stored is not None:
             self._reach[(arm, target)] = ReachResult(**stored)
         return stored is not None
@@ -160,12 +160,12 @@ class BenchChecks:
     def _answer(self, arm: str, target: str) -> bool:
         if (arm, target) in self._decided:
             return self._decided[(arm, target)][0]
-        site = _site(target)
+        site = Site.parse(target)
         if site is not None:
             return self.reach_site(arm, site).reachable
-        if (arm, target) not in self._reach:
-            self.reach(arm, target)
-        return self._reach[(arm, target)].reachable  # a path missing is no matter here
+        # Known or cached: its answer, even where its path is missing; else checked.
+        known = self._reach[(arm, target)] if self._known(arm, target) else None
+        return (known or self.reach(arm, target)).reachable
 
     def release_paths(self) -> None:
         """The pool may now simplify the paths of the answers it gave (until then it
@@ -187,13 +187,16 @@ class BenchChecks:
         self._batches.clear()
         for pair in list(self._decided):
             result = done[pair]
-            self.cache.put(f"{self.key}/reach/{pair[0]}/{pair[1]}", result.__dict__)
-            site = _site(pair[1])
+            self.cache.put(self._reach_key(*pair), result.__dict__)
+            site = Site.parse(pair[1])
             if site is None:
                 self._reach[pair] = result
             else:
                 self._site_reach[(pair[0], site)] = result
         self._decided.clear()
+
+    def _reach_key(self, arm: str, target: str | Site) -> str:
+        return f"{self.key}/reach/{arm}/{target}"
 
     def pairs(self) -> list[tuple[str, str]]:
         """Every (arm, part) pair, in file order: movable parts and the top alike."""
@@ -213,7 +216,7 @@ class BenchChecks:
         pending = self._site_pending.get((arm, site))
         if pending is not None:
             return pending.done()
-        stored = self.cache.get(f"{self.key}/reach/{arm}/{site}")
+        stored = self.cache.get(self._reach_key(arm, site))
         if stored is not None:
             self._site_reach[(arm, site)] = ReachResult(**stored)
         return stored is not None
@@ -224,7 +227,7 @@ class BenchChecks:
             self._collect()
         if (arm, site) in self._site_reach:
             return self._site_reach[(arm, site)]
-        key = f"{self.key}/reach/{arm}/{site}"
+        key = self._reach_key(arm, site)
         pending = self._site_pending.pop((arm, site), None)
         stored = self.cache.get(key) if pending is None else None
         if stored is not None:
@@ -305,9 +308,3 @@ class BenchChecks:
 def _touched(*places: Place) -> frozenset[str]:
     """The parts the gripper may touch on a move between `places`."""
     return frozenset(p if isinstance(p, str) else p.part for p in places)
-
-
-def _site(target: str) -> Site | None:
-    """The Site a pool target names ("top@c2"), or None for a part id."""
-    part, at, point = target.partition("@")
-    return Site(part, point) if at else None

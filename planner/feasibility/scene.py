@@ -93,6 +93,12 @@ class Site:
     def __str__(self) -> str:
         return f"{self.part}@{self.point}"  # "@" is in no part id: cache keys stay apart
 
+    @staticmethod
+    def parse(target: str) -> Site | None:
+        """The Site a check target names ("top@c2", as `str` writes it); None for a part id."""
+        part, at, point = target.partition("@")
+        return Site(part, point) if at else None
+
 
 def site_of(attached: Mapping[str, tuple[str, str]], part: str, point: str) -> Site:
     """Where connection point `point` of `part` lies when `attached` (part -> (onto,
