@@ -15,6 +15,7 @@ approxPolyDP keeps break near ties.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -38,6 +39,7 @@ _PATCH_PX = 160  # the patch's side at most; ~1 mm a pixel for faces up to 7 cm
 _MARGIN = 1.1  # the patch reaches this many face widths either side of the centre
 _CARD_GAP_M = 0.004  # masked around the code's card: its edge blurs into the face
 _MIN_CONTRAST = 18.0  # grey levels between the face and the bench around it
+_COVERED = 0.1  # the share of a face another part's card may hide and it is still read
 
 
 @dataclass(frozen=True)
@@ -214,9 +216,35 @@ def classify_outline(outline: Points, scale: float,
     )
 
 
-def read_outline(image: Image, face: FaceView,
-                 corners: npt.NDArray[np.float64]) -> OutlineReading:
-    """The outline of the face beside the code whose corners are `corners`."""
+def face_in_frame(face: FaceView, corners: npt.NDArray[np.float64]) -> Points:
+    """The face's footprint in the frame: four corners, from the code's plane."""
+    h = face.marker_size / 2
+    code = np.array([[-h, h], [h, h], [h, -h], [-h, -h]], dtype=np.float32)
+    to_image = cv2.getPerspectiveTransform(code, corners.astype(np.float32))
+    (ox, oy), (w, d) = face.offset, face.footprint
+    box = [[ox - w / 2, oy + d / 2], [ox + w / 2, oy + d / 2],
+           [ox + w / 2, oy - d / 2], [ox - w / 2, oy - d / 2]]  # fmt: skip
+    seen = cv2.perspectiveTransform(np.array([box], dtype=np.float32), to_image)
+    return np.asarray(seen[0], dtype=np.float32)
+
+
+def covered_share(face: Points, covers: Sequence[Points]) -> float:
+    """The largest share of the face's footprint (frame pixels) one of `covers` hides."""
+    area = float(cv2.contourArea(face))
+    if area <= 0:
+        return 0.0
+    shares = [float(cv2.intersectConvexConvex(face, cover)[0]) / area for cover in covers]
+    return max(shares, default=0.0)
+
+
+def read_outline(
+    image: Image, face: FaceView, corners: npt.NDArray[np.float64], covers: Sequence[Points] = ()
+) -> OutlineReading:
+    """The outline of the face beside the code whose corners are `corners`; `covers`
+    are the cards of codes nearer the camera (in the frame), which may hide it."""
+    if covered_share(face_in_frame(face, corners), covers) > _COVERED:
+        # Half a square reads as a triangle: a hidden face is no reading at all.
+        return OutlineReading(None, 0.0, "the face is under another part's card")
     warped = face_patch(image, face, corners)
     if warped is None:
         return OutlineReading(None, 0.0, "the face is out of the frame")

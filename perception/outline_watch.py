@@ -12,6 +12,9 @@ from __future__ import annotations
 from collections import Counter, deque
 from functools import cache
 
+import numpy as np
+import numpy.typing as npt
+
 from perception.codes_image import printed_side
 from perception.frames import Image
 from perception.layout import BenchLayout
@@ -24,6 +27,22 @@ from perception.outline import FaceView, OutlineEstimate, OutlineReading, read_o
 def _card_side(part_id: str, marker_id: int, marker_size_m: float) -> float:
     """The printed square of a part's code, quiet zone included (cached: every frame)."""
     return printed_side(encode_part(part_id, marker_id), marker_size_m)
+
+
+# A code this much larger in the frame than another is nearer the camera.
+_NEARER = 1.05
+
+
+def _side_in_frame(corners: npt.NDArray[np.float64]) -> float:
+    """A code's mean side in the frame, in pixels."""
+    return float(np.mean(np.linalg.norm(corners - np.roll(corners, 1, axis=0), axis=1)))
+
+
+def _card_in_frame(corners: npt.NDArray[np.float64], ratio: float) -> npt.NDArray[np.float32]:
+    """A code's card in the frame: its corners pushed out from its centre by `ratio`
+    (the card's side, quiet zone included, over the code's)."""
+    centre = corners.mean(axis=0)
+    return np.asarray(centre + (corners - centre) * ratio, dtype=np.float32)
 
 
 class OutlineWatch:
@@ -47,6 +66,12 @@ class OutlineWatch:
 
     def update(self, image: Image, observation: FrameObservation) -> dict[str, OutlineEstimate]:
         self.readings = {}
+        marker = self.layout.marker_size_m
+        cards = []  # every part code's card in the frame
+        for d in observation.detections:
+            if isinstance(d.code, PartCode):
+                ratio = _card_side(d.code.part_id, d.code.marker_id, marker) / marker
+                cards.append((d, _card_in_frame(d.corners, ratio)))
         for detection in observation.detections:
             code = detection.code
             if not isinstance(code, PartCode):
@@ -54,7 +79,16 @@ class OutlineWatch:
             face = self.face(code.part_id, code.marker_id)
             if face is None:
                 continue
-            reading = read_outline(image, face, detection.corners)
+            # Codes are printed at one size, so a code that looks larger is nearer the
+            # camera: its card can lie over this face (a foot on a standing leg over
+            # one on the bench), never under it.
+            side = _side_in_frame(detection.corners)
+            covers = [
+                card
+                for other, card in cards
+                if other is not detection and _side_in_frame(other.corners) > _NEARER * side
+            ]
+            reading = read_outline(image, face, detection.corners, covers)
             self.readings[code.part_id] = reading
             looks = self._looks.setdefault(code.part_id, deque(maxlen=self.window))
             looks.append(reading.shape)

@@ -12,6 +12,7 @@ import pytest
 
 from app.camera_bench import bench_layout, sim_scene
 from app.camera_source import belief_words, outcome_of
+from app.execution import ExecutionEvent
 from planner.plan import Plan
 from planner.scenario import load_scenario
 from planner.scenario_model import Scenario
@@ -53,8 +54,18 @@ def test_the_camera_reads_every_look_at_a_shape_as_the_world_is(
     scenario: Scenario, plan: Plan
 ) -> None:
     seen: collections.Counter[tuple[str, str]] = collections.Counter()
+    hidden: list[tuple[int, str]] = []
     for seed in SEEDS:
         run = CameraRun(scenario, plan, seed)
+        said: dict[str, str] = {}  # what perception last read of the face at each look
+
+        def note(event: ExecutionEvent, run: CameraRun = run, said: dict[str, str] = said) -> None:
+            action = plan.nodes[event.node].action
+            if event.kind == "sensing" and isinstance(action, SenseShapeOf):
+                reading = run.source.perception.outlines.readings.get(action.part)
+                said[event.node] = "no look" if reading is None else reading.reason
+
+        run.executor.listeners.append(note)
         try:
             assert run.executor.run() == "goal", seed
         finally:
@@ -66,7 +77,14 @@ def test_the_camera_reads_every_look_at_a_shape_as_the_world_is(
             action = plan.nodes[e.node].action
             assert isinstance(action, SenseShapeOf)
             truth = run.world.outlines[action.part]
-            assert e.source == "camera", (seed, e, run.source.last_observation)
+            if e.source != "camera":
+                # The camera answers no look at a face it cannot see: a face under the
+                # card of a part nearer the camera (a foot standing on a leg of the
+                # table) is left to the fallback, never read as the half of it that
+                # shows (half a square reads as a triangle).
+                assert said[e.node] == "the face is under another part's card", (seed, e)
+                hidden.append((seed, action.part))
+                continue
             assert e.outcome == truth == run.human.did[e.node], (seed, e)
             assert e.confidence is not None and e.confidence >= 0.6
             assert e.evidence is not None
@@ -74,7 +92,10 @@ def test_the_camera_reads_every_look_at_a_shape_as_the_world_is(
             assert camera["label"] == truth and e.evidence.detail["truth"] == truth
             assert camera["outlines"][action.part].startswith(truth)
             seen[(action.part, truth)] += 1
-    print(f"\n{len(SEEDS)} seeds, shapes the camera read: {dict(seen)}")
+    print(f"\n{len(SEEDS)} seeds, shapes the camera read: {dict(seen)}, hidden: {hidden}")
+    # Hidden faces are the exception (2 of 16 looks here): the camera reads at least
+    # four looks in five.
+    assert len(hidden) * 4 <= sum(seen.values()), hidden
     # The seeds make foot3 both ways and look at foot1 too.
     assert seen[("foot3", "circle")] and seen[("foot3", "square")]
     assert any(part == "foot1" for part, _ in seen)
