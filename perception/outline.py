@@ -69,6 +69,14 @@ class OutlineReading:
     corners: int = 0
 
 
+def _code_to_image(face: FaceView, corners: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """The homography from the code's plane (metres, the code's centre at 0) to the
+    frame, from the code's four corners there (top-left first, as decoded)."""
+    h = face.marker_size / 2
+    code = np.array([[-h, h], [h, h], [h, -h], [-h, -h]], dtype=np.float32)
+    return np.asarray(cv2.getPerspectiveTransform(code, corners.astype(np.float32)))
+
+
 def face_patch(image: Image, face: FaceView,
                corners: npt.NDArray[np.float64]) -> tuple[Image, float] | None:
     """The frame warped onto the face's plane around its centre, the part's +x to the
@@ -76,9 +84,7 @@ def face_patch(image: Image, face: FaceView,
     frame. The plane comes from the code's four corners in this frame (top-left
     first, as decoded): exact for this frame whatever the camera's pose, where a
     tracked position and a kept camera pose lag a camera that moved."""
-    h = face.marker_size / 2
-    code = np.array([[-h, h], [h, h], [h, -h], [-h, -h]], dtype=np.float32)
-    to_image = cv2.getPerspectiveTransform(code, corners.astype(np.float32))
+    to_image = _code_to_image(face, corners)
     half = _MARGIN * max(face.footprint)
     scale = min(1000.0, _PATCH_PX / (2 * half))
     n = round(2 * half * scale)
@@ -218,9 +224,7 @@ def classify_outline(outline: Points, scale: float,
 
 def face_in_frame(face: FaceView, corners: npt.NDArray[np.float64]) -> Points:
     """The face's footprint in the frame: four corners, from the code's plane."""
-    h = face.marker_size / 2
-    code = np.array([[-h, h], [h, h], [h, -h], [-h, -h]], dtype=np.float32)
-    to_image = cv2.getPerspectiveTransform(code, corners.astype(np.float32))
+    to_image = _code_to_image(face, corners)
     (ox, oy), (w, d) = face.offset, face.footprint
     box = [[ox - w / 2, oy + d / 2], [ox + w / 2, oy + d / 2],
            [ox + w / 2, oy - d / 2], [ox - w / 2, oy - d / 2]]  # fmt: skip
@@ -242,7 +246,7 @@ def read_outline(
 ) -> OutlineReading:
     """The outline of the face beside the code whose corners are `corners`; `covers`
     are the cards of codes nearer the camera (in the frame), which may hide it."""
-    if covered_share(face_in_frame(face, corners), covers) > _COVERED:
+    if covers and covered_share(face_in_frame(face, corners), covers) > _COVERED:
         # Half a square reads as a triangle: a hidden face is no reading at all.
         return OutlineReading(None, 0.0, "the face is under another part's card")
     warped = face_patch(image, face, corners)

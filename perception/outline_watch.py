@@ -67,11 +67,11 @@ class OutlineWatch:
     def update(self, image: Image, observation: FrameObservation) -> dict[str, OutlineEstimate]:
         self.readings = {}
         marker = self.layout.marker_size_m
-        cards = []  # every part code's card in the frame
+        cards = []  # every part code's side and card in the frame
         for d in observation.detections:
             if isinstance(d.code, PartCode):
                 ratio = _card_side(d.code.part_id, d.code.marker_id, marker) / marker
-                cards.append((d, _card_in_frame(d.corners, ratio)))
+                cards.append((d, _side_in_frame(d.corners), _card_in_frame(d.corners, ratio)))
         for detection in observation.detections:
             code = detection.code
             if not isinstance(code, PartCode):
@@ -85,8 +85,8 @@ class OutlineWatch:
             side = _side_in_frame(detection.corners)
             covers = [
                 card
-                for other, card in cards
-                if other is not detection and _side_in_frame(other.corners) > _NEARER * side
+                for other, other_side, card in cards
+                if other is not detection and other_side > _NEARER * side
             ]
             reading = read_outline(image, face, detection.corners, covers)
             self.readings[code.part_id] = reading
