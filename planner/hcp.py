@@ -23,7 +23,7 @@ from typing import Protocol
 
 from planner import walks
 from planner.encoding import FeasibilityContext
-from planner.solver import BranchSolver, Successor
+from planner.solver import BranchSolver, SequentialPlan, Successor
 from planner.vocabulary import Action, State
 
 MAX_HORIZON_FACTOR = 8
@@ -46,6 +46,9 @@ class Problem:
     # planner whenever several processes or actors solve, so that their number
     # and the schedule never change the plan.
     history_free: bool = False
+    # Look for a plan one step shorter than the horizon first (`_sequential`): set
+    # by the planner where most milestones cost nothing beyond their steps.
+    short_first: bool = False
 
 
 @dataclass(frozen=True)
@@ -129,15 +132,7 @@ class _BranchPlanner:
     def branch(self, start: State, forbid: frozenset[str]) -> BranchResult:
         t0 = time.perf_counter()
         calls0 = self.context.calls
-        horizon = self.problem.horizon
-        found = None
-        # A branch that needs more steps than the default horizon is retried
-        # with a longer one before it is called a dead end.
-        while True:
-            found = self.solver(horizon).plan(start, forbid)
-            if found is not None or horizon * 2 > self.problem.horizon * MAX_HORIZON_FACTOR:
-                break
-            horizon *= 2
+        found, horizon = self._sequential(start, forbid)
         planned = None
         if found is not None:
             solver = self.solver(self.problem.horizon)
@@ -161,6 +156,31 @@ class _BranchPlanner:
             self.context.calls - calls0,
             found is not None and found.start_goal,
         )
+
+    def _sequential(
+        self, start: State, forbid: frozenset[str]
+    ) -> tuple[SequentialPlan | None, int]:
+        """An optimal plan from `start` to its next milestone, and the horizon it is
+        optimal for.
+
+        With `Problem.short_first`, a plan one step shorter than the horizon is
+        looked for first, in a program a step smaller: most milestones take fewer
+        steps (U14: 855 of 865 solves), and such a plan that costs nothing beyond
+        its steps is optimal for the horizon too (`solver.STEP_PRIORITY`); other
+        plans are looked for again in the horizon's program. A branch that needs
+        more steps than the horizon is retried with longer ones before it is
+        called a dead end.
+        """
+        horizon = self.problem.horizon
+        if self.problem.short_first and horizon > 1:
+            short = self.solver(horizon - 1).plan(start, forbid)
+            if short is not None and short.steps_cost_only:
+                return short, horizon
+        while True:
+            found = self.solver(horizon).plan(start, forbid)
+            if found is not None or horizon * 2 > self.problem.horizon * MAX_HORIZON_FACTOR:
+                return found, horizon
+            horizon *= 2
 
 
 def _init_worker(problem: Problem) -> None:

@@ -29,6 +29,10 @@ HISTORY_FREE = ("--heuristic=None", "--forget-on-step=varScores,signs,lemmaScore
 # optimum sooner than branch-and-bound: 9 % less solving over every state of U6 and
 # U10, and the same optimal model in each of them.
 CORE_GUIDED = ("--opt-strategy=usc",)
+# The priority of a step's cost (preferences.lp: `:~ occurs(T). [1@1,T]`). A plan
+# whose costs above it are all zero is optimal for every longer horizon too: a
+# longer plan has more steps, and only costs above the steps' could make it better.
+STEP_PRIORITY = 1
 
 
 @dataclass(frozen=True)
@@ -48,6 +52,8 @@ class SequentialPlan:
 
     steps: list[Step]
     start_goal: bool
+    # No cost above the steps' (STEP_PRIORITY): no longer plan is better.
+    steps_cost_only: bool = True
 
 
 @dataclass(frozen=True)
@@ -105,14 +111,17 @@ class BranchSolver:
         banned = set(forbid)
         assumptions.extend(lit if a in banned else -lit for a, lit in self._forbid.items())
         best: list[clingo.Symbol] = []
+        above: list[bool] = [False]
 
         def on_model(model: clingo.Model) -> None:
             best[:] = model.symbols(shown=True)
+            costs = zip(model.cost, model.priority, strict=True)
+            above[0] = any(c for c, p in costs if p > STEP_PRIORITY)
 
         result = self._plan_ctl.solve(assumptions=assumptions, on_model=on_model)
         if not result.satisfiable:
             return None
-        return self._steps(best)
+        return self._steps(best, steps_cost_only=not above[0])
 
     def outcomes(self, state: State, action: Action) -> list[Successor]:
         """Every outcome of `action` in `state` and the state after it."""
@@ -157,7 +166,9 @@ class BranchSolver:
             meaning = self._shown[sym] = _meaning(sym)
         return meaning
 
-    def _steps(self, symbols: Sequence[clingo.Symbol]) -> SequentialPlan:
+    def _steps(
+        self, symbols: Sequence[clingo.Symbol], *, steps_cost_only: bool
+    ) -> SequentialPlan:
         states: dict[int, set[str]] = {}
         actions: dict[int, str] = {}
         chosen: dict[int, str] = {}
@@ -182,7 +193,7 @@ class BranchSolver:
             )
             for t in sorted(actions)
         ]
-        return SequentialPlan(steps, 0 in goals)
+        return SequentialPlan(steps, 0 in goals, steps_cost_only)
 
 
 def _meaning(sym: clingo.Symbol) -> tuple[str, int, str]:

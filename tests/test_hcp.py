@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from typing import Any
+
 import pytest
 
 from planner import encoding, solver
@@ -123,3 +126,65 @@ def test_one_worker_always_gives_the_same_plan() -> None:
         return d
 
     assert doc() == doc()
+
+
+def test_looking_one_step_short_first_finds_the_horizons_own_plan(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`Problem.short_first` changes how fast a branch is planned, not its plan: a plan
+    one step short that costs nothing beyond its steps is the horizon's optimum, and
+    one that costs more is looked for again with the whole horizon."""
+    from dataclasses import replace
+
+    from app.benchmark.planner_benchmark import instances, load
+    from planner.planning import DEFAULT_HORIZON
+
+    sc = load(instances(only=["paper-03"])[0], feasibility="declared")
+    answers: list[tuple[int, int, bool]] = []
+    real = solver.BranchSolver.plan
+
+    def plan(self: solver.BranchSolver, state: State, forbid: Iterable[str] = ()) -> Any:
+        found = real(self, state, forbid)
+        if found is not None:
+            answers.append((self.horizon, len(found.steps), found.steps_cost_only))
+        return found
+
+    monkeypatch.setattr(solver.BranchSolver, "plan", plan)
+
+    def doc(short_first: bool) -> dict[str, Any]:
+        def hook(planner: ConditionalPlanner) -> None:
+            # As several workers solve: each answer from its state alone.
+            planner.problem = replace(planner.problem, history_free=True, short_first=short_first)
+
+        out = plan_scenario(sc, workers=1, planner_hook=hook).plan.to_json()
+        out["stats"] = {k: v for k, v in out["stats"].items() if not k.endswith("_s")}
+        return out
+
+    whole = doc(short_first=False)
+    assert {h for h, _, _ in answers} == {DEFAULT_HORIZON}
+    answers.clear()
+    assert doc(short_first=True) == whole
+    short = [a for a in answers if a[0] == DEFAULT_HORIZON - 1]
+    again = [a for a in answers if a[0] == DEFAULT_HORIZON]
+    # Both ways were taken: short plans kept, and costlier ones looked for again...
+    assert any(cheap for _, _, cheap in short) and any(not cheap for _, _, cheap in short)
+    # ...where a plan using the whole horizon was sometimes the better one.
+    assert any(steps == DEFAULT_HORIZON for _, steps, _ in again)
+
+
+def test_the_step_priority_counts_steps_alone() -> None:
+    """`solver.STEP_PRIORITY` is the priority of one weak constraint: one per step
+    with an action. The shorter-first search relies on it (a longer plan costs more
+    there, and can win only above it)."""
+    import re
+
+    from planner.encoding import encoding_files
+
+    weak = [
+        (m.group(1).strip(), m.group(2), int(m.group(3)))
+        for f in encoding_files()
+        for m in re.finditer(r":~ (.*?)\. \[(\w+)@(\d+)", f.read_text())
+    ]
+    at_steps = [(body, weight) for body, weight, p in weak if p == solver.STEP_PRIORITY]
+    assert at_steps == [("occurs(T)", "1")]
+    assert {p for _, _, p in weak} >= {solver.STEP_PRIORITY + 1}
