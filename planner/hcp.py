@@ -211,6 +211,7 @@ class ConditionalPlanner:
         engine: Engine | None = None,
         inline_s: float = INLINE_SOLVE_S,
         on_planned: Callable[[list[DagNode]], None] | None = None,
+        fork_at_start: bool = False,
     ) -> None:
         self.goal_pairs = tuple(goal_pairs)
         self.workers = workers or mp.cpu_count()
@@ -221,6 +222,9 @@ class ConditionalPlanner:
         self.window = window or 2 * self.workers
         self.engine = engine
         self.inline_s = inline_s
+        # A plan known to be large forks its worker processes before planning
+        # starts (see `build`); small plans never pay for forking.
+        self.fork_at_start = fork_at_start
         # Told after each round which nodes got an action (e.g. to start their motions).
         self.on_planned = on_planned
         self._fresh: list[DagNode] = []
@@ -257,6 +261,11 @@ class ConditionalPlanner:
         first_done = False
         rounds = 0
         inline = self.engine is None and (self.workers <= 1 or self.inline_s > 0)
+        if inline and self.fork_at_start and self.engine is None and self.workers > 1:
+            # The worker processes are forked now, idle until the switch: forked
+            # after this process has ground and solved, their own programs land in
+            # its fragmented heap, and their solves were 25 % slower (U14).
+            self._start_pool()
         executor = self._inline() if inline else self._executor()
         cpu0 = time.process_time()  # CPU, not wall: a busy machine must not hurry the switch
         try:
@@ -333,18 +342,24 @@ class ConditionalPlanner:
             return self.engine.submit
         if self.workers <= 1:
             return self._inline()
-        self._pool = ProcessPoolExecutor(
-            max_workers=self.workers,
-            mp_context=mp.get_context("fork"),
-            initializer=_init_worker,
-            initargs=(self.problem,),
-        )
-        pool = self._pool
+        pool = self._start_pool()
 
         def remote(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
             return pool.submit(_run_branch, state, forbid)
 
         return remote
+
+    def _start_pool(self) -> ProcessPoolExecutor:
+        """The worker processes, forked at once (the first submit forks them all)."""
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(
+                max_workers=self.workers,
+                mp_context=mp.get_context("fork"),
+                initializer=_init_worker,
+                initargs=(self.problem,),
+            )
+            self._pool.submit(int)
+        return self._pool
 
     def _shutdown(self) -> None:
         if self.engine is not None:
