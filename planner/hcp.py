@@ -261,7 +261,7 @@ class ConditionalPlanner:
         first_done = False
         rounds = 0
         inline = self.engine is None and (self.workers <= 1 or self.inline_s > 0)
-        if inline and self.fork_at_start and self.engine is None and self.workers > 1:
+        if inline and self.fork_at_start and self.workers > 1:
             # The worker processes are forked now, idle until the switch: forked
             # after this process has ground and solved, their own programs land in
             # its fragmented heap, and their solves were 25 % slower (U14).
