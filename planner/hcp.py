@@ -264,8 +264,9 @@ class ConditionalPlanner:
         if inline and self.fork_at_start and self.workers > 1:
             # The worker processes are forked now, idle until the switch: forked
             # after this process has ground and solved, their own programs land in
-            # its fragmented heap, and their solves were 25 % slower (U14).
-            self._start_pool()
+            # its fragmented heap, and their solves were 25 % slower (U14). (The
+            # first submit forks them all.)
+            self._start_pool().submit(int)
         executor = self._inline() if inline else self._executor()
         cpu0 = time.process_time()  # CPU, not wall: a busy machine must not hurry the switch
         try:
@@ -350,7 +351,7 @@ class ConditionalPlanner:
         return remote
 
     def _start_pool(self) -> ProcessPoolExecutor:
-        """The worker processes, forked at once (the first submit forks them all)."""
+        """The worker processes' pool, made once."""
         if self._pool is None:
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers,
@@ -358,7 +359,6 @@ class ConditionalPlanner:
                 initializer=_init_worker,
                 initargs=(self.problem,),
             )
-            self._pool.submit(int)
         return self._pool
 
     def _shutdown(self) -> None:
