@@ -9,10 +9,13 @@ way, no code's card hangs over another part's face (a leg's reaches ~25 cm).
 from __future__ import annotations
 
 import math
+import multiprocessing as mp
 import random
 import time
 from collections import Counter
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 from perception.codes_image import printed_side
 from perception.frames import Image
@@ -95,6 +98,16 @@ class OutlineScore:
     def share(self, part_kind: str) -> float:
         return self.right[part_kind] / self.looks[part_kind] if self.looks[part_kind] else 0.0
 
+    def add(self, other: OutlineScore) -> None:
+        """Counts `other`'s frames, looks and votes in with these."""
+        self.frames += other.frames
+        self.looks.update(other.looks)
+        self.right.update(other.right)
+        self.confusion.update(other.confusion)
+        self.voted += other.voted
+        self.voted_wrong.extend(other.voted_wrong)
+        self.seconds += other.seconds
+
     @property
     def ms_per_look(self) -> float:
         return 1e3 * self.seconds / max(1, sum(self.looks.values()))
@@ -112,30 +125,55 @@ def _time_looks(image: Image, perception: BenchPerception, perceived: Perceived)
 
 
 def score_outlines(
-    benches: int, frames: int, size: tuple[int, int], degradation: Degradation
+    benches: int,
+    frames: int,
+    size: tuple[int, int],
+    degradation: Degradation,
+    processes: int = 1,
 ) -> OutlineScore:
-    """Renders `benches` benches (seeds 0..) for `frames` frames each and scores every look."""
+    """Renders `benches` benches (seeds 0..) for `frames` frames each and scores every look.
+
+    `processes` > 1 scores benches side by side in fresh processes: a bench's score
+    depends on its seed alone, and rendering it is most of the time (the look times
+    then share the cores)."""
+    seeds = range(benches)
+    if processes <= 1:
+        scores = [score_bench(seed, frames, size, degradation) for seed in seeds]
+    else:
+        # Spawned, not forked: the caller may hold threads (a browser driver, a server).
+        with ProcessPoolExecutor(processes, mp_context=mp.get_context("spawn")) as pool:
+            one = partial(score_bench, frames=frames, size=size, degradation=degradation)
+            scores = list(pool.map(one, seeds))
+    total = OutlineScore()
+    for score in scores:
+        total.add(score)
+    return total
+
+
+def score_bench(
+    seed: int, frames: int, size: tuple[int, int], degradation: Degradation
+) -> OutlineScore:
+    """One bench's looks over `frames` frames, and its outlines voted at the end."""
     score = OutlineScore()
-    for seed in range(benches):
-        layout, scene, truth = outline_bench(seed)
-        with SimulatedCamera(
-            scene, size=size, degradation=replace(degradation, seed=100 + seed)
-        ) as camera:
-            perception = BenchPerception(camera.intrinsics, layout)
-            for _ in range(frames):
-                frame = camera.read()
-                perceived = perception.process(frame)
-                score.frames += 1
-                for pid, reading in perception.outlines.readings.items():
-                    score.looks[kind(pid)] += 1
-                    score.right[kind(pid)] += reading.shape == truth[pid]
-                    score.confusion[(truth[pid], reading.shape)] += 1
-                score.seconds += _time_looks(frame.image, perception, perceived)
-        for pid, shape in truth.items():
-            estimate = perceived.world.parts[pid].outline
-            if estimate is None:
-                continue  # its code never decoded (another's card over it): no looks
-            score.voted += 1
-            if estimate.shape != shape:
-                score.voted_wrong.append((seed, pid, shape, estimate.shape))
+    layout, scene, truth = outline_bench(seed)
+    with SimulatedCamera(
+        scene, size=size, degradation=replace(degradation, seed=100 + seed)
+    ) as camera:
+        perception = BenchPerception(camera.intrinsics, layout)
+        for _ in range(frames):
+            frame = camera.read()
+            perceived = perception.process(frame)
+            score.frames += 1
+            for pid, reading in perception.outlines.readings.items():
+                score.looks[kind(pid)] += 1
+                score.right[kind(pid)] += reading.shape == truth[pid]
+                score.confusion[(truth[pid], reading.shape)] += 1
+            score.seconds += _time_looks(frame.image, perception, perceived)
+    for pid, shape in truth.items():
+        estimate = perceived.world.parts[pid].outline
+        if estimate is None:
+            continue  # its code never decoded (another's card over it): no looks
+        score.voted += 1
+        if estimate.shape != shape:
+            score.voted_wrong.append((seed, pid, shape, estimate.shape))
     return score

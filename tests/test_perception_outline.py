@@ -4,6 +4,7 @@ QR decoding and tracking, real OpenCV contours; truth known from the scene."""
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import replace
 
 import cv2
@@ -27,13 +28,20 @@ def test_drawn_outlines_are_told_apart(shape: str, side_px: int) -> None:
         image = np.zeros((3 * side_px, 3 * side_px), np.uint8)
         c = 1.5 * side_px
         if shape == "circle":
-            corners = [(c + side_px / 2 * math.cos(a), c + side_px / 2 * math.sin(a))
-                       for a in np.linspace(0, 2 * math.pi, 64, endpoint=False)]
+            corners = [
+                (c + side_px / 2 * math.cos(a), c + side_px / 2 * math.sin(a))
+                for a in np.linspace(0, 2 * math.pi, 64, endpoint=False)
+            ]
         else:
             k = 3 if shape == "triangle" else 4
             radius = side_px / math.sqrt(3) if k == 3 else side_px / math.sqrt(2)
-            corners = [(c + radius * math.cos(turn + 2 * math.pi * i / k),
-                        c + radius * math.sin(turn + 2 * math.pi * i / k)) for i in range(k)]
+            corners = [
+                (
+                    c + radius * math.cos(turn + 2 * math.pi * i / k),
+                    c + radius * math.sin(turn + 2 * math.pi * i / k),
+                )
+                for i in range(k)
+            ]
         cv2.fillPoly(image, [np.round(np.array(corners)).astype(np.int32)], 255)
         contours, _ = cv2.findContours(image, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
         scale = side_px / 0.04  # pixels a metre, for a 4 cm face
@@ -46,12 +54,14 @@ def test_outlines_right_in_200_degraded_frames() -> None:
     """Per frame, each part whose code decodes gets one look: the share of looks that
     read its true outline, over 200 frames at 1024 px with jitter, blur, noise and
     lighting changes, on four benches of random outlines and turns."""
-    score = score_outlines(BENCHES, FRAMES, (1024, 1024), HARD)
+    score = score_outlines(BENCHES, FRAMES, (1024, 1024), HARD, processes=os.cpu_count() or 1)
     feet, legs = score.share("foot"), score.share("leg")
-    print(f"\n{score.frames} frames: feet {score.right['foot']}/{score.looks['foot']} looks "
-          f"right ({feet:.1%}), standing legs {score.right['leg']}/{score.looks['leg']} "
-          f"({legs:.1%}); voted wrong {len(score.voted_wrong)}/{score.voted}; "
-          f"{dict(score.confusion)}; {score.ms_per_look:.1f} ms a look")
+    print(
+        f"\n{score.frames} frames: feet {score.right['foot']}/{score.looks['foot']} looks "
+        f"right ({feet:.1%}), standing legs {score.right['leg']}/{score.looks['leg']} "
+        f"({legs:.1%}); voted wrong {len(score.voted_wrong)}/{score.voted}; "
+        f"{dict(score.confusion)}; {score.ms_per_look:.1f} ms a look"
+    )
     assert score.frames >= 200
     # Most codes decode in these frames, so most parts are looked at in most frames.
     feet_count = sum(1 for p in PARTS if not p[0].startswith("leg"))
