@@ -74,27 +74,41 @@ def ground(
     (`.../state.lp:12:3-9: error: syntax error ...`); `directory` replaces the
     shipped encodings (tests break a copy).
     """
-    facts = list(facts)
     skipped = tuple(skip)
-    messages = _Messages(expect_undefined=bool(skipped))
+    messages = ClingoMessages(expect_undefined=bool(skipped))
+    ctl = clingo.Control(["-c", f"h={horizon}", *options], logger=messages)
+    ground_into(ctl, facts, context, messages, skip=skipped, directory=directory)
+    return ctl
+
+
+def ground_into(
+    ctl: clingo.Control,
+    facts: Iterable[str],
+    context: FeasibilityContext,
+    messages: ClingoMessages,
+    *,
+    skip: tuple[str, ...] = (),
+    directory: Traversable | None = None,
+    rules: str = "",
+) -> None:
+    """Loads the encodings, `facts` and `rules` into `ctl` and grounds them (`ground`)."""
+    facts = list(facts)
     if PLANNED not in facts:
         # A fixed configuration grounds without the planned one's rules: even
         # rules that instantiate nothing reorder clasp's atoms, and so would
         # change which of several optimal plans a fixed scenario gets.
-        skipped = (*skipped, "configuration")
-    ctl = clingo.Control(["-c", f"h={horizon}", *options], logger=messages)
+        skip = (*skip, "configuration")
     try:
-        for file in encoding_files(skipped, directory):
+        for file in encoding_files(skip, directory):
             with resources.as_file(file) as path:
                 ctl.load(str(path))
-        ctl.add("base", [], "\n".join(f"{f}." for f in facts))
+        ctl.add("base", [], "\n".join([*(f"{f}." for f in facts), rules]))
         ctl.ground([("base", [])], context=context)
     except RuntimeError as err:
         raise EncodingError(messages.errors_or(str(err))) from err
-    return ctl
 
 
-class _Messages:
+class ClingoMessages:
     """clingo's logger: keeps errors for the exception, logs warnings."""
 
     def __init__(self, *, expect_undefined: bool) -> None:

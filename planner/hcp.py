@@ -49,6 +49,9 @@ class Problem:
     # Look for a plan one step shorter than the horizon first (`_sequential`): set
     # by the planner where most milestones cost nothing beyond their steps.
     short_first: bool = False
+    # Planning programs preprocessed by clasp, by horizon (`planner.preprocessing`):
+    # every process solves a horizon with the same program, made once.
+    programs: tuple[tuple[int, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -126,6 +129,7 @@ class _BranchPlanner:
                 self.context,
                 skip=self.problem.skip,
                 history_free=self.problem.history_free,
+                program=dict(self.problem.programs).get(horizon),
             )
         return self.solvers[horizon]
 

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 from planner import conversation, diagnosis
 from planner.hcp import INLINE_SOLVE_S, ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.plan import Plan, build_plan
+from planner.preprocessing import ProgramRequest, preprocessed
 from planner.scenario import Scenario
 from planner.vocabulary import Attach, State
 
@@ -41,6 +42,16 @@ def short_first(scenario: Scenario, reachable: frozenset[tuple[str, str]]) -> bo
     reached = {part for _, part in reachable}
     human = sum(1 for part, _ in goals if part not in reached)
     return len(goals) >= LARGE_BENCH_GOALS and human <= SHORT_FIRST_MAX_HUMAN_SHARE * len(goals)
+
+
+def preprocessed_programs(problem: Problem) -> tuple[tuple[int, str], ...]:
+    """clasp's preprocessed planning programs (`planner.preprocessing`) of the horizons
+    branches are first solved with: a step short (`short_first`) and the horizon."""
+    horizons = [problem.horizon - 1] if problem.short_first else []
+    horizons.append(problem.horizon)
+    reachable = tuple(sorted(problem.reachable))
+    asked = [ProgramRequest(problem.facts, h, reachable, problem.skip) for h in horizons]
+    return tuple(zip(horizons, preprocessed(asked), strict=True))
 
 
 class PlanningCancelled(Exception):
@@ -185,6 +196,9 @@ def _plan(
         skip=skip,
         short_first=short_first(scenario, reachable),
     )
+    large = len(scenario.goal_pairs()) >= LARGE_BENCH_GOALS
+    if large:
+        problem = replace(problem, programs=preprocessed_programs(problem))
     first: list[float] = []
 
     def on_first(_: dict[State, DagNode]) -> None:
@@ -212,7 +226,7 @@ def _plan(
         engine=engine,
         inline_s=inline_s,
         on_planned=None if checks is None else _motion_prefetch(checks, first),
-        fork_at_start=len(scenario.goal_pairs()) >= LARGE_BENCH_GOALS,
+        fork_at_start=large,
     )
     if planner_hook:
         planner_hook(planner)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import clingo
 
 from planner.encoding import PLANNED, FeasibilityContext, ground
+from planner.preprocessing import load_preprocessed
 from planner.vocabulary import Action, State, parse_action
 
 # clasp keeps heuristic scores and learnt constraints from one solve to the next,
@@ -73,14 +74,16 @@ class BranchSolver:
     skip: tuple[str, ...] = ()
     options: tuple[str, ...] = ()
     history_free: bool = False  # see HISTORY_FREE
+    # The planning program preprocessed by clasp (`planner.preprocessing`), made
+    # from these facts and horizon; None: ground here.
+    program: str | None = None
 
     def __post_init__(self) -> None:
-        self._plan_ctl = ground(
-            self.facts,
-            self.horizon,
-            self.context,
-            skip=self.skip,
-            options=(*(HISTORY_FREE + CORE_GUIDED if self.history_free else ()), *self.options),
+        options = (*(HISTORY_FREE + CORE_GUIDED if self.history_free else ()), *self.options)
+        self._plan_ctl = (
+            ground(self.facts, self.horizon, self.context, skip=self.skip, options=options)
+            if self.program is None
+            else load_preprocessed(self.program, options)
         )
         # Assumptions are passed as solver literals, looked up once: symbol
         # assumptions cost a symbol-table lookup each on every solve.
@@ -221,8 +224,10 @@ def _externals(ctl: clingo.Control, name: str) -> dict[str, int]:
     """
     out = {}
     for atom in ctl.symbolic_atoms.by_signature(name, 1):
-        if atom.is_external:
-            ctl.assign_external(atom.symbol, None)
+        # (In a preprocessed program they are shown atoms standing for the
+        # externals, not externals by name: `preprocessing.NAMED_EXTERNALS`.)
+        if atom.is_external or not atom.is_fact:
+            ctl.assign_external(atom.literal, None)
             out[str(atom.symbol.arguments[0])] = atom.literal
     return out
 

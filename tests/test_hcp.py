@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import pytest
 
 from planner import encoding, solver
 from planner.audit import audit
-from planner.hcp import ConditionalPlanner, DagNode, Progress
+from planner.hcp import ConditionalPlanner, DagNode, Problem, Progress
 from planner.planning import PlanningCancelled, plan_scenario
 from planner.vocabulary import CONVERSATION, State, parse_action
 from tests.domain_fixtures import scenario
@@ -170,6 +170,55 @@ def test_looking_one_step_short_first_finds_the_horizons_own_plan(
     assert any(cheap for _, _, cheap in short) and any(not cheap for _, _, cheap in short)
     # ...where a plan using the whole horizon was sometimes the better one.
     assert any(steps == DEFAULT_HORIZON for _, steps, _ in again)
+
+
+def test_a_program_preprocessed_by_clasp_gives_the_same_plan(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Large benches solve with clasp's preprocessed program (planner.preprocessing):
+    faster solves of the same program, so the same plan."""
+    from dataclasses import replace
+
+    from app.benchmark.planner_benchmark import instances, load
+    from planner import preprocessing
+    from planner.planning import DEFAULT_HORIZON, preprocessed_programs
+
+    sc = load(instances(only=["paper-03"])[0], feasibility="declared")
+    loaded: list[int] = []
+    real = preprocessing.load_preprocessed
+
+    def load_preprocessed(program: str, options: Sequence[str] = ()) -> Any:
+        loaded.append(len(program))
+        return real(program, options)
+
+    monkeypatch.setattr(solver, "load_preprocessed", load_preprocessed)
+
+    def doc(preprocessed: bool) -> dict[str, Any]:
+        def hook(planner: ConditionalPlanner) -> None:
+            problem = replace(planner.problem, history_free=True, short_first=True)
+            if preprocessed:
+                problem = replace(problem, programs=preprocessed_programs(problem))
+            planner.problem = problem
+
+        out = plan_scenario(sc, workers=1, planner_hook=hook).plan.to_json()
+        out["stats"] = {k: v for k, v in out["stats"].items() if not k.endswith("_s")}
+        return out
+
+    ground = doc(preprocessed=False)
+    assert not loaded
+    assert doc(preprocessed=True) == ground
+    # Both horizons' programs were made and loaded: a step short, and the horizon.
+    assert len(loaded) == 2 and all(loaded)
+    programs = preprocessed_programs(
+        replace(Problem(("part(top)",), frozenset(), DEFAULT_HORIZON), short_first=True)
+    )
+    assert [h for h, _ in programs] == [DEFAULT_HORIZON - 1, DEFAULT_HORIZON]
+    assert all(text.startswith("asp 1 0 0") for _, text in programs)
+    # A program clingo cannot read is told in clingo's words, one line.
+    with pytest.raises(encoding.EncodingError) as err:
+        preprocessed_programs(Problem(("part(top",), frozenset(), DEFAULT_HORIZON))
+    assert str(err.value).startswith("clasp's preprocessing failed: <block>:1:")
+    assert "syntax error" in str(err.value) and "\n" not in str(err.value)
 
 
 def test_the_step_priority_counts_steps_alone() -> None:
