@@ -280,7 +280,13 @@ class ConditionalPlanner:
                     # nothing pending between rounds).
                     inline, executor = False, self._executor()
                 asked = set(pending.values())
-                while queue and len(pending) < self.window:
+                # Until the first branch reaches a goal, a round solves only the head
+                # of the queue, the continuation of the hoped-for branch: the first
+                # executable branch then waits for its own solves alone, not for a
+                # window of others each time. The rounds still depend on the results
+                # alone, so the plan still depends on the window alone.
+                width = self.window if first_done else 1
+                while queue and len(pending) < width:
                     state = queue.popleft()
                     node = self.nodes.get(state)
                     if node is None or node.action is not None or node.goal:
