@@ -58,18 +58,24 @@ def preprocessed(requests: Sequence[ProgramRequest]) -> list[str]:
                 )  # fmt: skip
             running.append((child, made))
         programs = []
-        for child, made in running:
-            _, err = child.communicate()
-            if child.returncode != 0:
-                why = _reason(err) or f"exit status {child.returncode}"
-                raise EncodingError(f"clasp's preprocessing failed: {why}")
-            programs.append(made.read_text())
+        try:
+            for child, made in running:
+                _, err = child.communicate()
+                if child.returncode != 0:
+                    why = _reason(err) or f"exit status {child.returncode}"
+                    raise EncodingError(f"clasp's preprocessing failed: {why}")
+                programs.append(made.read_text())
+        finally:
+            for child, _ in running:
+                if child.poll() is None:
+                    child.kill()  # its program is not wanted any more
+                    child.wait()
     return programs
 
 
 def load_preprocessed(program: str, options: Sequence[str] = ()) -> clingo.Control:
-    """A `Control` holding `program` (aspif), ready to solve; its `init/1` and
-    `forbid/1` atoms are free (see `solver._externals`)."""
+    """A `Control` holding `program` (aspif), ready to solve; its shown `init/1` and
+    `forbid/1` atoms stand for the externals (`solver._externals` frees them)."""
     ctl = clingo.Control([*options, "--warn=none"])
     # clingo reads aspif from files only.
     with tempfile.NamedTemporaryFile("w", suffix=".aspif", prefix="tandem-") as f:
