@@ -225,8 +225,9 @@ def _externals(ctl: clingo.Control, name: str) -> dict[str, int]:
     out = {}
     for atom in ctl.symbolic_atoms.by_signature(name, 1):
         # (In a preprocessed program they are shown atoms standing for the
-        # externals, not externals by name: `preprocessing.NAMED_EXTERNALS`.)
-        if atom.is_external or not atom.is_fact:
+        # externals, not externals by name: `preprocessing.NAMED_EXTERNALS`.
+        # Either way, every atom of the signature is one.)
+        if not atom.is_fact:
             ctl.assign_external(atom.literal, None)
             out[str(atom.symbol.arguments[0])] = atom.literal
     return out

@@ -54,6 +54,35 @@ def test_first_branch_is_complete_before_the_rest() -> None:
     assert [a for a in planned if parse_action(a).name not in CONVERSATION] == path
 
 
+def test_rounds_hold_the_first_branch_alone_until_it_reaches_a_goal() -> None:
+    """Before the first branch is complete a round solves one state, the hoped-for
+    branch's continuation; after it, up to a window of states."""
+    from app.benchmark.planner_benchmark import instances, load
+
+    sc = load(instances(only=["paper-03"])[0], feasibility="declared")
+    planners: list[ConditionalPlanner] = []
+    first_at: list[int] = []
+
+    def hook(planner: ConditionalPlanner) -> None:
+        planners.append(planner)
+        told = planner.on_first_branch
+
+        def on_first(nodes: dict[State, DagNode]) -> None:
+            first_at.append(len(planner.trace))
+            if told is not None:
+                told(nodes)
+
+        planner.on_first_branch = on_first
+
+    plan_scenario(sc, workers=1, window=4, planner_hook=hook)
+    sizes: dict[int, int] = {}
+    for number, _ in planners[0].trace:
+        sizes[number] = sizes.get(number, 0) + 1
+    before = {number for number, _ in planners[0].trace[: first_at[0]]}
+    assert len(before) > 3 and all(sizes[n] == 1 for n in before)
+    assert max(sizes[n] for n in sizes if n not in before) == 4
+
+
 def test_cancel_stops_planning() -> None:
     planners: list[ConditionalPlanner] = []
 
