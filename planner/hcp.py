@@ -24,7 +24,8 @@ from typing import Protocol
 from planner import walks
 from planner.encoding import FeasibilityContext
 from planner.solver import BranchSolver, SequentialPlan, Successor
-from planner.vocabulary import Action, State
+from planner.symmetry import Renaming, Symmetry
+from planner.vocabulary import Action, State, parse_action
 
 MAX_HORIZON_FACTOR = 8
 # CPU seconds of planning done in the coordinator's own process before worker
@@ -72,6 +73,9 @@ class BranchResult:
     solve_s: float
     checks: int
     start_goal: bool = False
+    # The plan of an interchangeable state's solve, renamed (`planner.symmetry`):
+    # no solve of its own.
+    reused: bool = False
 
 
 @dataclass
@@ -197,6 +201,34 @@ def _run_branch(start: State, forbid: frozenset[str]) -> BranchResult:
     return _worker.branch(start, forbid)
 
 
+def _renamed(
+    result: BranchResult, start: State, renaming: Renaming | None, reused: bool
+) -> BranchResult:
+    """`result` (a canonical state's) for `start`, parts named back; `reused`: it
+    is another state's solve (its time and checks are counted there)."""
+    if reused:
+        result = replace(result, solve_s=0.0, checks=0, reused=True)
+    if result.start == start:
+        return result
+    assert renaming is not None
+    state, text = renaming.actual_state, renaming.actual
+    steps = None
+    if result.steps is not None:
+        steps = tuple(
+            PlannedStep(
+                state(step.state),
+                parse_action(text(str(step.action))),
+                None if step.chosen is None else text(step.chosen),
+                tuple(
+                    Successor(None if o.label is None else text(o.label), state(o.state), o.goal)
+                    for o in step.outcomes
+                ),
+            )
+            for step in result.steps
+        )
+    return replace(result, start=start, steps=steps)
+
+
 # --- coordinator -------------------------------------------------------------
 
 
@@ -216,6 +248,7 @@ class ConditionalPlanner:
         inline_s: float = INLINE_SOLVE_S,
         on_planned: Callable[[list[DagNode]], None] | None = None,
         fork_at_start: bool = False,
+        symmetry: Symmetry | None = None,
     ) -> None:
         self.goal_pairs = tuple(goal_pairs)
         self.workers = workers or mp.cpu_count()
@@ -229,6 +262,12 @@ class ConditionalPlanner:
         # A plan known to be large forks its worker processes before planning
         # starts (see `build`); small plans never pay for forking.
         self.fork_at_start = fork_at_start
+        # States that are the same problem under other names of interchangeable
+        # parts are solved once (`planner.symmetry`): solves by canonical state
+        # and forbidden actions.
+        self.symmetry = symmetry if symmetry else None
+        self._solving: dict[tuple[State, frozenset[str]], Future[BranchResult]] = {}
+        self._reusing: set[Future[BranchResult]] = set()  # asked, and solved for another state
         # Told after each round which nodes got an action (e.g. to start their motions).
         self.on_planned = on_planned
         self._fresh: list[DagNode] = []
@@ -286,7 +325,9 @@ class ConditionalPlanner:
                 # window of others each time. The rounds still depend on the results
                 # alone, so the plan still depends on the window alone.
                 width = self.window if first_done else 1
-                while queue and len(pending) < width:
+                # (A state interchangeable with one asked before takes no place in
+                # the window: it needs no solve of its own.)
+                while queue and len(pending) - len(self._reusing) < width:
                     state = queue.popleft()
                     node = self.nodes.get(state)
                     if node is None or node.action is not None or node.goal:
@@ -294,7 +335,7 @@ class ConditionalPlanner:
                     if state in asked:
                         continue
                     asked.add(state)
-                    pending[executor(state, frozenset(node.forbidden))] = state
+                    pending[self._ask(executor, state, frozenset(node.forbidden))] = state
                 if not pending:
                     continue
                 # A round's results are integrated together, in the order they
@@ -311,9 +352,11 @@ class ConditionalPlanner:
                 t_round = time.perf_counter()
                 for fut in done:
                     del pending[fut]
+                    self._reusing.discard(fut)
                     result = fut.result()
-                    self.trace.append((rounds, result.solve_s))
-                    self.solves += 1
+                    if not result.reused:
+                        self.trace.append((rounds, result.solve_s))
+                        self.solves += 1
                     self.solve_s += result.solve_s
                     self.checks += result.checks
                     ahead, later = self._integrate(result, root)
@@ -338,6 +381,39 @@ class ConditionalPlanner:
         return root
 
     # -- execution backends
+    def _ask(
+        self,
+        executor: Callable[[State, frozenset[str]], Future[BranchResult]],
+        state: State,
+        forbid: frozenset[str],
+    ) -> Future[BranchResult]:
+        """The branch of `state`: solved, or renamed from the solve of an
+        interchangeable state asked before (this round or earlier)."""
+        if self.symmetry is None:
+            return executor(state, forbid)
+        canon, renaming = self.symmetry.canonical(state)
+        if renaming is not None:
+            forbid = frozenset(renaming.canonical(a) for a in forbid)
+        key = (canon, forbid)
+        solving = self._solving.get(key)
+        reused = solving is not None
+        if solving is None:
+            solving = self._solving[key] = executor(canon, forbid)
+            if renaming is None:
+                return solving
+        mine: Future[BranchResult] = Future()
+
+        def renamed(done: Future[BranchResult]) -> None:
+            try:
+                mine.set_result(_renamed(done.result(), state, renaming, reused))
+            except BaseException as err:  # noqa: BLE001 - handed on to the coordinator
+                mine.set_exception(err)
+
+        solving.add_done_callback(renamed)
+        if reused:
+            self._reusing.add(mine)
+        return mine
+
     def _inline(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
         planner = _BranchPlanner(self.problem)
 

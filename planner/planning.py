@@ -15,6 +15,7 @@ from planner.hcp import INLINE_SOLVE_S, ConditionalPlanner, DagNode, DeadEnd, Pr
 from planner.plan import Plan, build_plan
 from planner.preprocessing import ProgramRequest, preprocessed
 from planner.scenario import Scenario
+from planner.symmetry import Symmetry
 from planner.vocabulary import Attach, State
 
 if TYPE_CHECKING:
@@ -138,6 +139,7 @@ def plan_scenario(
     window: int = 0,
     start: State | None = None,
     inline_s: float = INLINE_SOLVE_S,
+    symmetry: bool = True,
 ) -> PlanResult:
     """Plans every contingency of `scenario`; raises `hcp.DeadEnd` if no plan exists.
 
@@ -152,7 +154,8 @@ def plan_scenario(
     of them (0: one per CPU of the cluster); `window` is how many states are
     solved side by side (0: two per worker; the plan depends on it alone);
     `inline_s` how many seconds of solving this process does before starting the
-    worker processes (hcp.INLINE_SOLVE_S).
+    worker processes (hcp.INLINE_SOLVE_S); `symmetry` whether states that differ
+    by a renaming of interchangeable parts are solved once (`planner.symmetry`).
     """
     checkers = workers if check_workers is None else check_workers
     with bench_checks(scenario, cache_dir, checkers or (1 if cluster else 0)) as checks:
@@ -167,6 +170,7 @@ def plan_scenario(
             window,
             start,
             inline_s,
+            symmetry,
         )
 
 
@@ -181,6 +185,7 @@ def _plan(
     window: int = 0,
     start: State | None = None,
     inline_s: float = INLINE_SOLVE_S,
+    symmetry: bool = True,
 ) -> PlanResult:
     t0 = time.perf_counter()
     reachable, checks_s = feasible_pairs(scenario, checks)
@@ -227,6 +232,7 @@ def _plan(
         inline_s=inline_s,
         on_planned=None if checks is None else _motion_prefetch(checks, first),
         fork_at_start=large,
+        symmetry=Symmetry.of(problem.facts, reachable) if symmetry else None,
     )
     if planner_hook:
         planner_hook(planner)
