@@ -29,6 +29,7 @@ Member = tuple[str, ...]  # part ids in role order: the member's root, then what
 # A constant of clingo's term syntax not followed by "(" (then it would name a
 # function), or a quoted string, which is left as it is.
 _TOKEN = re.compile(r'"(?:\\.|[^"\\])*"|(?<![\w\'])[a-z_][\w\']*(?![\w\'(])')
+_CONSTANT = re.compile(r"[a-z_][\w']*")
 _GOAL = re.compile(r"^goal\(([^(),]+),([^(),]+)\)$")
 
 
@@ -109,10 +110,14 @@ class Symmetry:
         classes: list[tuple[Member, ...]] = []
         for parent in sorted(onto):
             found: list[list[Member]] = []
+            taken: set[str] = set()
             for root in sorted(onto[parent]):
                 mine = member(root, frozenset({root, parent}))
-                if mine is None:
+                # Renaming needs members apart (a part going onto two parents would be
+                # in two) and named by constants (what `substitute` renames).
+                if mine is None or taken & set(mine) or not all(map(_CONSTANT.fullmatch, mine)):
                     continue
+                taken |= set(mine)
                 for group in found:
                     if _swaps(group[0], mine, fact_set):
                         group.append(mine)

@@ -35,6 +35,15 @@ def test_members_are_interchangeable_only_where_every_fact_says_so() -> None:
     assert p4.classes == ((("leg2",), ("leg3",), ("leg4",), ("leg5",)),)
 
 
+def test_members_that_share_a_part_are_not_renamed() -> None:
+    # foot goes onto both legs: the legs alike, but renaming one would rename the
+    # other's foot too.
+    facts = ["goal(a,top)", "goal(b,top)", "goal(f,a)", "goal(f,b)", "part(a)", "part(b)"]
+    assert Symmetry.of(facts, [("left", "a"), ("left", "b")]).classes == ()
+    alone = ["goal(a,top)", "goal(b,top)", "goal(f,a)", "goal(g,b)"]
+    assert Symmetry.of(alone, []).classes == ((("a", "f"), ("b", "g")),)
+
+
 def test_a_state_and_its_renaming_have_one_canonical_state() -> None:
     sym = _symmetry(_declared("U", 6))
     # Pair 3 assembled, pair 5 loose: assembled in id order, its own canonical state.
