@@ -3,7 +3,8 @@
 The builder asks for an optimal sequential plan from the start state (the
 solver picks the outcome of each nondeterministic action), then plans again
 from the state after every other outcome, until every leaf is a goal. Each
-distinct state is planned once, so the plan is a DAG. Solves run in the
+distinct state is planned once, so the plan is a DAG; states equal up to a
+renaming of interchangeable parts share one solve (`planner.symmetry`). Solves run in the
 coordinator's process, and in worker processes once planning has taken
 INLINE_SOLVE_S, each holding its own grounded program (ground once, solve many).
 An outcome from which the goal cannot be reached bans the action that led to
