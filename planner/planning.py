@@ -152,7 +152,8 @@ def plan_scenario(
     `check_workers` how many processes check geometry (None: as many as `workers`).
     `cluster` ("auto", "ray://HOST:PORT") solves branches on Ray actors, `workers`
     of them (0: one per CPU of the cluster); `window` is how many states are
-    solved side by side (0: two per worker; the plan depends on it alone);
+    solved side by side (0: two per worker, four on large benches; the plan
+    depends on it alone);
     `inline_s` how many seconds of solving this process does before starting the
     worker processes (hcp.INLINE_SOLVE_S); `symmetry` whether states that differ
     by a renaming of interchangeable parts are solved once (`planner.symmetry`).

@@ -43,7 +43,8 @@ def register(parser: argparse.ArgumentParser) -> None:
         "--window",
         type=int,
         default=0,
-        help="states solved side by side per round (0: two per worker); the plan depends "
+        help="states solved side by side per round (0: two per worker, four on benches with "
+        "20 or more goal attachments); the plan depends "
         "on it, not on the number of workers",
     )
     parser.set_defaults(run=run)
