@@ -19,6 +19,7 @@ import numpy as np
 
 from planner.feasibility._bullet import pb
 from planner.feasibility.arms import ARMS, HOME
+from planner.feasibility.kinematics import arm_chain
 from planner.feasibility.path_planner import FoundPath, find_path, finish_path, plan_path, seed_ompl
 from planner.feasibility.robot import BaxterBody, load_robot
 from planner.feasibility.scene import PartBox, Scene, Site, build_scene
@@ -34,13 +35,7 @@ ORN_TOL = 0.10  # radians
 IK_ATTEMPTS = 12
 IK_GIVE_UP_AFTER = 4  # attempts; if none came within IK_HOPELESS the target is out of reach
 IK_HOPELESS = 0.05  # metres
-# A seed whose first IK pass ends this far from the target is not refined further:
-# on the paper's benches and families to n=18 no such pass was ever refined into a
-# solution, and the refinements are most of a "no" answer's cost.
-IK_REFINE_HOPELESS = 0.25  # metres
-# A pass that brings a solution still off by more than POS_TOL less than 10 % closer
-# ends the refinement too (never cut short a pass that led to a solution there).
-IK_STALLED = 0.9
+IK_MORE_ATTEMPTS = 24
 GOALS_WANTED = 3  # collision-free IK goals to try paths to
 
 
@@ -101,7 +96,7 @@ class World:
         self._reach_radius = {a: self._arm_length(a) for a in ARMS}
         self._wrist_bound = {a: wrist_bound(self.robot, a, POS_TOL, ORN_TOL) for a in ARMS}
         self._moving = self.robot.arm_links["left"] | self.robot.arm_links["right"]
-        self._ik_limits = self._joint_limits()
+        self._chains = {a: arm_chain(self.robot, a) for a in ARMS}
         self._ignore_static_contacts()
 
     def close(self) -> None:
@@ -278,14 +273,24 @@ class World:
             return  # no wrist position can serve the grasp: skip IK (workspace.py)
         lo, hi = np.array(self.robot.lower[arm]), np.array(self.robot.upper[arm])
         best = math.inf
-        for attempt in range(IK_ATTEMPTS):
-            seed_q = HOME[arm] if attempt == 0 else list(map(float, rng.uniform(lo, hi)))
-            for pos, orn in poses:
-                q, pos_err, ok = self._solve_ik(arm, pos, orn, seed_q)
-                best = min(best, pos_err)
-                if not ok:
+        # Seeds come in batches, each solved at once: the first IK_GIVE_UP_AFTER, the
+        # rest of IK_ATTEMPTS, and IK_MORE_ATTEMPTS more where every solution so far
+        # collided (another posture may not).
+        sizes = (IK_GIVE_UP_AFTER - 1, IK_ATTEMPTS - IK_GIVE_UP_AFTER, IK_MORE_ATTEMPTS)
+        for number, size in enumerate(sizes):
+            if number == 2 and (search.goals or not search.accurate):
+                return
+            batch = [list(map(float, rng.uniform(lo, hi))) for _ in range(size)]
+            if number == 0:
+                batch.insert(0, list(HOME[arm]))
+            asked = [(pose, seed) for seed in batch for pose in poses]
+            answers = self._chains[arm].search([p for p, _ in asked], [q for _, q in asked])
+            for ((pos, orn), _), answer in zip(asked, answers, strict=True):
+                best = min(best, answer.pos_err)
+                if not (answer.solved and self._meets(arm, answer.q, pos, orn)):
                     continue
                 search.accurate = True
+                q = answer.q
                 if self.is_valid(arm, q, box.id) and not any(
                     max(abs(a - b) for a, b in zip(q, g, strict=True)) < 1e-3 for g in search.goals
                 ):
@@ -293,53 +298,15 @@ class World:
                     yield q
                     if len(search.goals) >= GOALS_WANTED:
                         return
-            if attempt + 1 >= IK_GIVE_UP_AFTER and not search.accurate and best > IK_HOPELESS:
+            if not search.accurate and best > IK_HOPELESS:
                 return  # every seed ends far from the target: it is out of reach
 
-    def _solve_ik(
-        self, arm: str, pos: list[float], orn: list[float], seed_q: list[float]
-    ) -> tuple[list[float], float, bool]:
-        """pybullet IK from `seed_q`, refined a few times; checked by forward kinematics
-        because pybullet checks only position and does not enforce joint limits."""
-        r = self.robot
-        r.set_arm(arm, seed_q)
-        idx = [r.movable.index(j) for j in r.arm_joints[arm]]
-        lower, upper, ranges = self._ik_limits
-        q = list(seed_q)
-        rest = [0.0] * len(r.movable)
-        pos_err = orn_err = math.inf
-        previous = math.inf
-        for _ in range(4):
-            sol = pb.calculateInverseKinematics(
-                r.body,
-                r.end_effector[arm],
-                pos,
-                orn,
-                lowerLimits=lower,
-                upperLimits=upper,
-                jointRanges=ranges,
-                restPoses=rest,  # zero: seed-pulled or home-pulled rests found fewer
-                maxNumIterations=100,
-                residualThreshold=1e-5,
-                physicsClientId=self.client,
-            )
-            q = [float(sol[i]) for i in idx]
-            r.set_arm(arm, q)
-            pos_err, orn_err = self._pose_error(arm, pos, orn)
-            if pos_err < POS_TOL / 5 and orn_err < ORN_TOL / 5 or pos_err > IK_REFINE_HOPELESS:
-                break
-            if pos_err > POS_TOL and pos_err > IK_STALLED * previous:
-                break  # another pass from a stalled solution lands where this one did
-            previous = pos_err
-        ok = pos_err < POS_TOL and orn_err < ORN_TOL and r.within_limits(arm, q)
-        return q, pos_err, ok
-
-    def _joint_limits(self) -> tuple[list[float], list[float], list[float]]:
-        """Lower and upper limits and ranges of every movable joint, in IK order."""
-        r = self.robot
-        infos = [pb.getJointInfo(r.body, j, physicsClientId=self.client) for j in r.movable]
-        lower, upper = [i[8] for i in infos], [i[9] for i in infos]
-        return lower, upper, [h - lo for lo, h in zip(lower, upper, strict=True)]
+    def _meets(self, arm: str, q: list[float], pos: list[float], orn: list[float]) -> bool:
+        """Whether pybullet's forward kinematics and joint limits accept `q` as a grasp
+        at (`pos`, `orn`): the judge of every IK answer (`kinematics` only searches)."""
+        self.robot.set_arm(arm, q)
+        pos_err, orn_err = self._pose_error(arm, pos, orn)
+        return pos_err < POS_TOL and orn_err < ORN_TOL and self.robot.within_limits(arm, q)
 
     def _pose_error(self, arm: str, pos: list[float], orn: list[float]) -> tuple[float, float]:
         state = pb.getLinkState(
