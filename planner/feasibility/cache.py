@@ -23,9 +23,10 @@ from planner.scenario_model import Scenario
 # 6: a reach path's simplification restarts OMPL's seed sequence (reach.py), so it
 # can run after other checks; 4 of the ~700 paths of the paper's benches and the
 # families to n=10 changed, no answer did.
-# 7: IK by `kinematics.ArmChain` instead of pybullet's: every answer of the paper's
-# benches, the families to n = 10 and the shipped scenarios is the same (612
-# pairs and points), but the grasp configurations, and so the paths, differ.
+# 7: IK by `kinematics.ArmChain` instead of pybullet's, and paths simplified by a
+# fixed sequence of steps instead of `simplifyMax` (path_planner.py): every answer
+# of the paper's benches, the families to n = 10 and the shipped scenarios is the
+# same (612 pairs and points), but the grasp configurations and paths differ.
 MODEL_VERSION = 7
 FILE_NAME = "feasibility.sqlite"
 
