@@ -51,12 +51,12 @@ class FeasibilityContext:
     """Answers `@reachable(M,P)` from a predicate; counts the calls it served."""
 
     def __init__(self, reachable: Callable[[str, str], bool]) -> None:
-        self._reachable = reachable
+        self.predicate = reachable
         self.calls = 0
 
     def reachable(self, arm: clingo.Symbol, part: clingo.Symbol) -> clingo.Symbol:
         self.calls += 1
-        return clingo.Number(1 if self._reachable(arm.name, part.name) else 0)
+        return clingo.Number(1 if self.predicate(arm.name, part.name) else 0)
 
 
 def ground(

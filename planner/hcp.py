@@ -24,7 +24,7 @@ from typing import Protocol
 
 from planner import walks
 from planner.encoding import FeasibilityContext
-from planner.solver import BranchSolver, SequentialPlan, Successor
+from planner.solver import BranchSolver, SequentialPlan, StepProgram, Successor
 from planner.symmetry import Renaming, Symmetry
 from planner.vocabulary import Action, State, parse_action
 
@@ -125,6 +125,9 @@ class _BranchPlanner:
         self.problem = problem
         self.context = FeasibilityContext(lambda m, p: (m, p) in problem.reachable)
         self.solvers: dict[int, BranchSolver] = {}
+        # Grounds aside from now on: the first branch lists outcomes within
+        # milliseconds of its first solve.
+        self.step = StepProgram(problem.facts, self.context, problem.skip)
 
     def solver(self, horizon: int) -> BranchSolver:
         if horizon not in self.solvers:
@@ -135,6 +138,7 @@ class _BranchPlanner:
                 skip=self.problem.skip,
                 history_free=self.problem.history_free,
                 program=dict(self.problem.programs).get(horizon),
+                step=self.step,
             )
         return self.solvers[horizon]
 

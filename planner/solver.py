@@ -10,7 +10,9 @@ a goal: the goal test is written once, in ASP.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterable, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass
 
 import clingo
@@ -66,6 +68,38 @@ class Successor:
     goal: bool
 
 
+class StepProgram:
+    """The one-step transition program that lists an action's outcomes
+    (`BranchSolver.outcomes`), grounded in a thread of its own from the moment it
+    is made: clingo grounds outside the GIL, so this overlaps the grounding and
+    solving of the planning program, and the first branch comes sooner."""
+
+    def __init__(
+        self, facts: Sequence[str], context: FeasibilityContext, skip: tuple[str, ...] = ()
+    ) -> None:
+        self._program: Future[tuple[clingo.Control, dict[str, int]]] = Future()
+        # A context of its own: two threads must not count calls into one.
+        own = FeasibilityContext(context.predicate)
+        args = (list(facts), own, tuple(sorted({*skip, "milestones", "lookahead", "preferences"})))
+        threading.Thread(target=self._ground, args=args, daemon=True).start()
+
+    def _ground(self, facts: list[str], context: FeasibilityContext, skip: tuple[str, ...]) -> None:
+        try:
+            ctl = ground(facts, 1, context, skip=skip)
+            ctl.configuration.solve.models = 0  # type: ignore[union-attr]
+            if PLANNED in facts:
+                # The table each model chooses (configuration.lp) is not shown:
+                # one model per outcome, not one per table.
+                ctl.configuration.solve.project = "show"  # type: ignore[union-attr]
+            self._program.set_result((ctl, _externals(ctl, "init")))
+        except BaseException as err:  # raised again by `get`
+            self._program.set_exception(err)
+
+    def get(self) -> tuple[clingo.Control, dict[str, int]]:
+        """The grounded program and its `init/1` externals (waits for the thread)."""
+        return self._program.result()
+
+
 @dataclass
 class BranchSolver:
     facts: Sequence[str]
@@ -77,6 +111,9 @@ class BranchSolver:
     # The planning program preprocessed by clasp (`planner.preprocessing`), made
     # from these facts and horizon; None: ground here.
     program: str | None = None
+    # The one-step program, if made already (shared by a process's solvers);
+    # None: ground it here when first needed.
+    step: StepProgram | None = None
 
     def __post_init__(self) -> None:
         options = (*(HISTORY_FREE + CORE_GUIDED if self.history_free else ()), *self.options)
@@ -98,14 +135,7 @@ class BranchSolver:
 
     def _step_program(self) -> tuple[clingo.Control, dict[str, int]]:
         if self._step is None:
-            step_skip = tuple(sorted({*self.skip, "milestones", "lookahead", "preferences"}))
-            ctl = ground(self.facts, 1, self.context, skip=step_skip)
-            ctl.configuration.solve.models = 0  # type: ignore[union-attr]
-            if PLANNED in self.facts:
-                # The table each model chooses (configuration.lp) is not shown:
-                # one model per outcome, not one per table.
-                ctl.configuration.solve.project = "show"  # type: ignore[union-attr]
-            self._step = (ctl, _externals(ctl, "init"))
+            self._step = (self.step or StepProgram(self.facts, self.context, self.skip)).get()
         return self._step
 
     def plan(self, state: State, forbid: Iterable[str] = ()) -> SequentialPlan | None:
