@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 from planner.vocabulary import (
     CONVERSATION,
     AskHelp,
@@ -117,12 +119,20 @@ def _say_normal(action: Communication) -> str:
 
 
 def _region(part: str, facts: frozenset[str]) -> str:
+    return _regions(facts).get(part, "?")
+
+
+@functools.lru_cache(maxsize=8)
+def _regions(facts: frozenset[str]) -> dict[str, str]:
+    """Each part's region (`loc/2`), read once per plan's facts: a large plan
+    explains hundreds of nodes with the same facts."""
+    out: dict[str, str] = {}
     for text in facts:
         if text.startswith("loc("):
             term = parse_term(text)
-            if len(term.args) == 2 and term.args[0].name == part:
-                return term.args[1].name
-    return "?"
+            if len(term.args) == 2:
+                out.setdefault(term.args[0].name, term.args[1].name)
+    return out
 
 
 def why(action: Communication, state: State, facts: frozenset[str]) -> str:

@@ -342,44 +342,58 @@ def number_states(nodes: Mapping[State, DagNode], root: State) -> dict[State, st
 
 
 def tree_stats(plan: Plan) -> dict[str, int | float]:
-    """Statistics of the unfolded tree (shared nodes count once per path), by DP.
+    """Statistics of the unfolded tree (shared nodes count once per path).
 
-    The paper's columns leave the conversation out (its nodes add nothing to N, D or
-    C); GE, W and X count it."""
-    memo: dict[str, dict[str, int]] = {}
-    for node_id in plan.postorder():
+    A count over the unfolded tree is each node's own count times the number of
+    paths from the root to it, and those numbers come from one pass in reverse
+    postorder; the longest branch (D and its A, S and C) is a pass in postorder.
+    The paper's columns leave the conversation out (its nodes add nothing to N, D
+    or C); GE, W and X count it."""
+    order = plan.postorder()
+    paths = dict.fromkeys(order, 0)
+    paths[plan.root] = 1
+    for node_id in reversed(order):
+        for child in plan.nodes[node_id].children:
+            paths[child.node] += paths[node_id]
+    counts = dict.fromkeys(("N", "GE", "W", "X", "L", "K", "O", "CF", "R", "DN"), 0)
+    widest = 0
+    # Per node: (D, A, S, C) of the longest branch below it, the first longest
+    # child in children order.
+    longest: dict[str, tuple[int, int, int, int]] = {}
+    for node_id in order:
         node = plan.nodes[node_id]
-        kids = [memo[c.node] for c in node.children]
         name = node.action.name if node.action is not None else ""
-        nondet = any(c.outcome is not None for c in node.children)
         talk = name in CONVERSATION
-        s = {
-            "N": (not talk) + sum(k["N"] for k in kids),
-            "GE": (name in GREETINGS) + sum(k["GE"] for k in kids),
-            "W": (name in WARNINGS) + sum(k["W"] for k in kids),
-            "X": (name in EXPLANATIONS) + sum(k["X"] for k in kids),
-            "L": 1 if not kids else sum(k["L"] for k in kids),
-            "K": (name == AskHelp.name) + sum(k["K"] for k in kids),
-            "O": (name == OfferHelp.name) + sum(k["O"] for k in kids),
-            "CF": (name == ConfirmAttach.name) + sum(k["CF"] for k in kids),
-            "R": (name in REQUESTS) + sum(k["R"] for k in kids),
-            "DN": int(nondet) + sum(k["DN"] for k in kids),
-            "BF": max([len(kids), *(k["BF"] for k in kids)]),
+        n = paths[node_id]
+        own = {
+            "N": not talk,
+            "GE": name in GREETINGS,
+            "W": name in WARNINGS,
+            "X": name in EXPLANATIONS,
+            "L": not node.children,
+            "K": name == AskHelp.name,
+            "O": name == OfferHelp.name,
+            "CF": name == ConfirmAttach.name,
+            "R": name in REQUESTS,
+            "DN": any(c.outcome is not None for c in node.children),
         }
-        # The longest branch: first longest child in children order.
-        if not kids:
-            s.update(D=0, A=0, S=0, C=0)
-        else:
-            longest = max(k["D"] for k in kids)
-            first = next(k for k in kids if k["D"] == longest)
-            s.update(
-                D=first["D"] + (not talk),
-                A=first["A"] + (node.kind == "actuation"),
-                S=first["S"] + (node.kind == "sensing"),
-                C=first["C"] + (node.kind == "communication" and not talk),
-            )
-        memo[node_id] = s
-    stats: dict[str, int | float] = dict(memo[plan.root])
+        for key, counted in own.items():
+            if counted:
+                counts[key] += n
+        widest = max(widest, len(node.children))
+        below: tuple[int, int, int, int] | None = None
+        for child in node.children:
+            if below is None or longest[child.node][0] > below[0]:
+                below = longest[child.node]
+        d, a, s, c = below or (0, 0, 0, 0)
+        if below is not None:
+            d += not talk
+            a += node.kind == "actuation"
+            s += node.kind == "sensing"
+            c += node.kind == "communication" and not talk
+        longest[node_id] = (d, a, s, c)
+    d, a, s, c = longest[plan.root]
+    stats: dict[str, int | float] = {**counts, "BF": widest, "D": d, "A": a, "S": s, "C": c}
     stats["dag_nodes"] = len(plan.nodes)
     return {k: stats[k] for k in STAT_KEYS}
 
