@@ -148,14 +148,8 @@ def _node_facts(plan: Plan) -> Iterable[str]:
 
 def _counts(plan: Plan) -> dict[str, int]:
     """GE, W and X of the unfolded tree: each node once per path from the root."""
-    order = plan.postorder()
-    copies = dict.fromkeys(order, 0)
-    copies[plan.root] = 1
-    for node_id in reversed(order):
-        for child in plan.nodes[node_id].children:
-            copies[child.node] += copies[node_id]
     out = dict.fromkeys(CONVERSATION_STAT_KEYS, 0)
-    for node_id, n in copies.items():
+    for node_id, n in plan.root_paths().items():
         action = plan.nodes[node_id].action
         name = action.name if action is not None else ""
         for key, names in _COUNTED.items():

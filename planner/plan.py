@@ -222,6 +222,17 @@ class Plan(BaseModel):
     def postorder(self) -> list[str]:
         return walks.postorder(self.root, self.children_of)
 
+    def root_paths(self, order: list[str] | None = None) -> dict[str, int]:
+        """How many paths lead from the root to each node: how often the unfolded
+        tree holds it. `order`: the plan's postorder, if at hand."""
+        order = self.postorder() if order is None else order
+        paths = dict.fromkeys(order, 0)
+        paths[self.root] = 1
+        for node_id in reversed(order):
+            for child in self.nodes[node_id].children:
+                paths[child.node] += paths[node_id]
+        return paths
+
     def expected_path(self) -> list[tuple[str, str | None]]:
         """(node id, outcome taken) from the root along the expected outcomes to a leaf;
         the leaf's outcome is None. Stops at a node seen before (a partial plan)."""
@@ -350,11 +361,7 @@ def tree_stats(plan: Plan) -> dict[str, int | float]:
     The paper's columns leave the conversation out (its nodes add nothing to N, D
     or C); GE, W and X count it."""
     order = plan.postorder()
-    paths = dict.fromkeys(order, 0)
-    paths[plan.root] = 1
-    for node_id in reversed(order):
-        for child in plan.nodes[node_id].children:
-            paths[child.node] += paths[node_id]
+    paths = plan.root_paths(order)
     counts = dict.fromkeys(("N", "GE", "W", "X", "L", "K", "O", "CF", "R", "DN"), 0)
     widest = 0
     # Per node: (D, A, S, C) of the longest branch below it, the first longest
