@@ -80,6 +80,10 @@ def log_text(page: Page) -> str:
 def test_one_operator_many_observers_then_sigterm(browser: Browser, running: Running) -> None:  # noqa: F811
     operator = open_page(browser, running.url)
     observer = open_page(browser, running.url)
+    # Chromium draws a page in the background only now and then (the observer's
+    # opened last): a click there can wait past its timeout to scroll. Each page
+    # is brought to the front before it is used, as a person would.
+    operator.bring_to_front()
     operator.get_by_role("button", name="Plan", exact=True).click()
     execute = operator.get_by_role("button", name="Execute plan", exact=True)
     expect(execute).to_be_enabled(timeout=120_000)
@@ -88,6 +92,7 @@ def test_one_operator_many_observers_then_sigterm(browser: Browser, running: Run
     question = "Human holds a part"
     expect(observer.get_by_role("button", name=question, exact=True)).to_be_visible(timeout=60_000)
     # Locked for everyone while it runs: nobody replaces the plan under the robot.
+    observer.bring_to_front()
     observer.get_by_text("Review sessions").click()  # a folder, closed at first
     for page, names in ((operator, ()), (observer, ("Open session", "Replay"))):
         for name in ("Plan", "Open file", "Save", *names):
@@ -105,6 +110,7 @@ def test_one_operator_many_observers_then_sigterm(browser: Browser, running: Run
         before = store.events(session.id)
     assert session.result is None and all(e.outcome is None for e in before)
     # The operator answers; the observer sees it happen.
+    operator.bring_to_front()
     operator.get_by_role("button", name=question, exact=True).click()
     expect(observer.get_by_text("Human holds a part", exact=False).first).to_be_visible()
     wait_for(lambda: "sense(humanHolding)" in log_text(observer), 30)
