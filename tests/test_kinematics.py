@@ -94,5 +94,5 @@ def test_a_half_turn_of_the_hand_is_corrected(world: World) -> None:
     yaw_flip = pb.getQuaternionFromEuler([0.0, 0.0, math.pi])
     turned = list(pb.multiplyTransforms([0, 0, 0], orn, [0, 0, 0], yaw_flip)[1])
     seeds = [HOME["right"], *_random_configurations(chain, 5, seed=4)]
-    answers = chain.solve([(pos.tolist(), turned)] * len(seeds), seeds)
+    answers = list(chain.search([(pos.tolist(), turned)] * len(seeds), seeds))
     assert any(a.solved for a in answers)

@@ -143,10 +143,6 @@ class ArmChain:
         for i in range(given, n):
             yield self._answer(q[i], error[i])
 
-    def solve(self, poses: Sequence[Pose], seeds: Sequence[Sequence[float]]) -> list[IkAnswer]:
-        """Every answer of `search`."""
-        return list(self.search(poses, seeds))
-
     @staticmethod
     def _answer(q: np.ndarray, error: np.ndarray) -> IkAnswer:
         return IkAnswer(

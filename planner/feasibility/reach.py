@@ -35,7 +35,7 @@ ORN_TOL = 0.10  # radians
 IK_ATTEMPTS = 12
 IK_GIVE_UP_AFTER = 4  # attempts; if none came within IK_HOPELESS the target is out of reach
 IK_HOPELESS = 0.05  # metres
-IK_MORE_ATTEMPTS = 24
+IK_MORE_ATTEMPTS = 24  # more seeds where every accurate solution collided
 GOALS_WANTED = 3  # collision-free IK goals to try paths to
 
 
