@@ -155,6 +155,16 @@ def test_a_remote_host_needs_allow_remote() -> None:
     assert len(result.stderr.strip().splitlines()) == 1
 
 
+def test_mesh_detail_outside_zero_to_one_is_refused() -> None:
+    for bad in ("0", "1.5", "fine"):
+        result = subprocess.run(
+            [*tandem_command(), "dashboard", "--mesh-detail", bad, "--port", str(free_port())],
+            cwd=ROOT, capture_output=True, text=True, timeout=60,
+        )  # fmt: skip
+        assert result.returncode == 2, result
+        assert "argument --mesh-detail:" in result.stderr.strip().splitlines()[-1]
+
+
 def test_sigint_without_an_execution_stops_cleanly(tmp_path: Path) -> None:
     port = free_port()
     process = subprocess.Popen(

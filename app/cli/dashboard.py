@@ -53,7 +53,25 @@ def register(parser: argparse.ArgumentParser) -> None:
         help="where the robot's voice plays: in the browser page (default) or on this "
         "machine's speakers",
     )
+    parser.add_argument(
+        "--mesh-detail",
+        type=mesh_detail,
+        default=0.1,
+        metavar="SHARE",
+        help="share of the robot's and the human's triangles drawn, in (0, 1] (default 0.1: "
+        "light enough for a browser without a GPU; 1 draws the full meshes)",
+    )
     parser.set_defaults(run=run)
+
+
+def mesh_detail(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not 0.0 < value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in (0, 1], not {text}")
+    return value
 
 
 def is_loopback(host: str) -> bool:
@@ -88,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
             data_dir=args.data_dir,
             scenario_dirs=args.scenario_dir,
             speak=args.speak,
+            mesh_detail=args.mesh_detail,
         )
     except OSError as err:
         raise BadInput(

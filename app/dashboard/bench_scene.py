@@ -14,6 +14,7 @@ import yourdfpy
 from viser.extras import ViserUrdf
 
 from app.bench_world import WorldView
+from app.dashboard.mesh_detail import DEFAULT_DETAIL, reduce_detail
 from planner.feasibility.arms import ARMS, HOME, JOINT_SUFFIXES
 from planner.feasibility.robot import baxter_urdf, human_urdf
 from planner.feasibility.scene import (
@@ -47,7 +48,13 @@ def _yaw_quat(yaw: float) -> tuple[float, float, float, float]:
 class BenchScene:
     """Everything on and around the bench; `show(world)` moves parts and arms."""
 
-    def __init__(self, server: viser.ViserServer, *, load_models: bool = True) -> None:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        *,
+        load_models: bool = True,
+        mesh_detail: float = DEFAULT_DETAIL,
+    ) -> None:
         self.server = server
         self.boxes: dict[str, PartBox] = {}
         self.human_edge_x = 0.0  # the bench's far end (x), where the human's hands reach over
@@ -57,14 +64,14 @@ class BenchScene:
         self._static: list[viser.SceneNodeHandle] = []
         self.robot: ViserUrdf | None = None
         if load_models:
-            self._load_models()
+            self._load_models(mesh_detail)
 
-    def _load_models(self) -> None:
+    def _load_models(self, mesh_detail: float) -> None:
         scene = self.server.scene
         scene.add_frame("/baxter", show_axes=False)
-        self.robot = ViserUrdf(
-            self.server, yourdfpy.URDF.load(str(baxter_urdf())), root_node_name="/baxter"
-        )
+        baxter = yourdfpy.URDF.load(str(baxter_urdf()))
+        reduce_detail(baxter, mesh_detail)
+        self.robot = ViserUrdf(self.server, baxter, root_node_name="/baxter")
         # The human model is y-up and faces +x: stand it up, facing the robot, feet
         # on the floor (its feet are ~1.0 m below its pelvis).
         upright = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
@@ -74,7 +81,9 @@ class BenchScene:
             position=(HUMAN_X, 0.0, FLOOR_Z + 1.0),
             wxyz=tuple(viser.transforms.SO3.from_matrix(upright).wxyz),
         )
-        ViserUrdf(self.server, yourdfpy.URDF.load(str(human_urdf())), root_node_name="/human")
+        human = yourdfpy.URDF.load(str(human_urdf()))
+        reduce_detail(human, mesh_detail)
+        ViserUrdf(self.server, human, root_node_name="/human")
         scene.add_label("/human_name", "human", position=(HUMAN_X, 0.0, FLOOR_Z + 1.85))
         self.show_arms({arm: list(q) for arm, q in HOME.items()})
 

@@ -20,6 +20,7 @@ from app.dashboard import scenario_edit
 from app.dashboard.bench_scene import BenchScene
 from app.dashboard.camera_panel import CameraPanel
 from app.dashboard.execution_panel import ExecutionPanel
+from app.dashboard.mesh_detail import DEFAULT_DETAIL
 from app.dashboard.node_details import details_markdown, stats_html
 from app.dashboard.operator import Operator
 from app.dashboard.planning_job import JobStatus, PlanningJob, partial_plan
@@ -65,6 +66,7 @@ class Dashboard:
         data_dir: str | None = None,
         scenario_dirs: Sequence[str | Path] = (),
         load_models: bool = True,
+        mesh_detail: float = DEFAULT_DETAIL,
         speak: Speak = "page",
     ) -> None:
         data = Path(data_dir) if data_dir is not None else default_data_dir()
@@ -109,7 +111,9 @@ class Dashboard:
         self.camera_panel = CameraPanel(
             gui, self, self.events, self.operator, data / RECORDINGS_FOLDER
         )
-        self.bench = BenchScene(self.server, load_models=load_models)
+        self.bench = BenchScene(
+            self.server, load_models=load_models, mesh_detail=mesh_detail
+        )
         self.tree = TreeView(self.server, self.select)
         self.current_arms: dict[str, list[float]] = {}
         self.server.on_client_connect(self._on_connect)
