@@ -7,6 +7,7 @@ document instead of reusing the solver.
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 
@@ -57,21 +58,30 @@ def parse_state(items: object) -> tuple[State, list[str]]:
         if not isinstance(item, str):
             errors.append(f"state: {item!r} is not a string")
             continue
-        try:
-            term = parse_term(item)
-        except TermError as exc:
-            errors.append(f"state: {exc}")
-            continue
-        args = constants(term)
-        if (
-            args is None
-            or FLUENT_ARITY.get(term.name) != len(args)
-            or (term.name == "initiatives" and not re.fullmatch(r"[1-9][0-9]*", args[0]))
-        ):
-            errors.append(f"state: unknown fluent {item}")
-            continue
-        out.add((term.name, *args))
+        fluent, error = _parse_fluent(item)
+        if fluent is None:
+            errors.append(error)
+        else:
+            out.add(fluent)
     return frozenset(out), errors
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _parse_fluent(item: str) -> tuple[Fluent | None, str]:
+    """One fluent of a state, or the error it makes. Cached: the states of a plan
+    share most of their fluents (U10: 131,705 parsed, 8.7 s of a 27 s audit)."""
+    try:
+        term = parse_term(item)
+    except TermError as exc:
+        return None, f"state: {exc}"
+    args = constants(term)
+    if (
+        args is None
+        or FLUENT_ARITY.get(term.name) != len(args)
+        or (term.name == "initiatives" and not re.fullmatch(r"[1-9][0-9]*", args[0]))
+    ):
+        return None, f"state: unknown fluent {item}"
+    return (term.name, *args), ""
 
 
 # ---------------------------------------------------------------- actions
