@@ -51,6 +51,9 @@ class Renaming:
     symmetry: Symmetry
     to_canonical: dict[tuple[int, int], int]
     to_actual: dict[tuple[int, int], int]
+    # Fluents renamed to the actual names so far: the states of one plan share most
+    # of their fluents (U14: 494,000 renames of far fewer texts, 1.5 s of planning).
+    _actual: dict[str, str] = field(default_factory=dict, compare=False, repr=False)
 
     def canonical(self, text: str) -> str:
         return self.symmetry.rename(text, self.to_canonical)
@@ -59,8 +62,14 @@ class Renaming:
         return self.symmetry.rename(text, self.to_actual)
 
     def actual_state(self, state: State) -> State:
-        rename, moves = self.symmetry.rename, self.to_actual
-        return frozenset([rename(f, moves) for f in state])
+        done, rename, moves = self._actual, self.symmetry.rename, self.to_actual
+        out = []
+        for fluent in state:
+            text = done.get(fluent)
+            if text is None:
+                text = done[fluent] = rename(fluent, moves)
+            out.append(text)
+        return frozenset(out)
 
 
 # What a fluent says about the members of a class: the member it names and its
