@@ -152,10 +152,7 @@ def _node_facts(plan: Plan) -> tuple[list[str], dict[str, list[str]]]:
         number = None
         if with_assembly:
             attached = frozenset(f for f in node.state if f.startswith("attached("))
-            number = assemblies.get(attached)
-            if number is None:
-                number = assemblies[attached] = len(assemblies)
-                facts.extend(f"assembled({number},{fluent})" for fluent in sorted(attached))
+            number = assemblies.setdefault(attached, len(assemblies))
         held = tuple(sorted(f for f in node.state if f.startswith(hands)))
         key = (str(node.action), held, number)
         situation = situations.get(key)
@@ -166,7 +163,25 @@ def _node_facts(plan: Plan) -> tuple[list[str], dict[str, list[str]]]:
             if number is not None:
                 facts.append(f"assembly({situation},{number})")
         nodes_of.setdefault(situation, []).append(node_id)
-    return facts, nodes_of
+    return facts + _assembly_facts(assemblies), nodes_of
+
+
+def _assembly_facts(assemblies: dict[frozenset[str], int]) -> list[str]:
+    """What is attached in each assembly: an assembly one attachment past another
+    one is `extends(S,S0,F)`, any other lists its fluents, `assembled(S,F)`. Plans
+    grow assemblies an attachment at a time, so most are extensions, and clingo
+    parses a tenth of the facts (U18: 86,000 `assembled` facts otherwise)."""
+    facts: list[str] = []
+    known: dict[frozenset[str], int] = {}
+    for attached, number in sorted(assemblies.items(), key=lambda a: (len(a[0]), a[1])):
+        smaller = ((attached - {fluent}, fluent) for fluent in sorted(attached))
+        parent = next(((known[less], fluent) for less, fluent in smaller if less in known), None)
+        if parent is None:
+            facts.extend(f"assembled({number},{fluent})" for fluent in sorted(attached))
+        else:
+            facts.append(f"extends({number},{parent[0]},{parent[1]})")
+        known[attached] = number
+    return facts
 
 
 def _counts(plan: Plan) -> dict[str, int]:
