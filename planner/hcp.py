@@ -31,9 +31,11 @@ from planner.vocabulary import Action, State, parse_action
 MAX_HORIZON_FACTOR = 8
 # CPU seconds of planning done in the coordinator's own process before worker
 # processes start. Forking them and grounding the domain once more in each costs
-# more than most plans take, and on a busy machine every round pays their
+# more than most plans take, and on a busy machine every result waits for their
 # scheduling. Where states are solved never changes the plan (the window alone does).
 INLINE_SOLVE_S = 2.0
+# How often planning reports progress and newly planned nodes while it goes on.
+TELL_EVERY_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -259,10 +261,10 @@ class ConditionalPlanner:
         self.workers = workers or mp.cpu_count()
         shared = engine is not None or self.workers > 1
         self.problem = replace(problem, history_free=True) if shared else problem
-        # States solved side by side in one round; the plan depends on it, never on
-        # the number of workers or which finished first (0: two per worker, four for
-        # a plan known to be large: U18's rounds then wait less for their slowest
-        # solve, 18 % less building with 2 workers).
+        # How many solves may be pending at once (`build`); the plan depends on it,
+        # never on the number of workers or which finished first (0: two per
+        # worker, four for a plan known to be large: with rounds, U18 waited less
+        # for their slowest solve, 18 % less building with 2 workers).
         self.window = window or (4 if fork_at_start else 2) * self.workers
         self.engine = engine
         self.inline_s = inline_s
@@ -275,11 +277,12 @@ class ConditionalPlanner:
         self.symmetry = symmetry if symmetry else None
         self._solving: dict[tuple[State, frozenset[str]], Future[BranchResult]] = {}
         self._reusing: set[Future[BranchResult]] = set()  # asked, and solved for another state
-        # Told after each round which nodes got an action (e.g. to start their motions).
+        # Told a few times a second which nodes got an action (e.g. to start their motions).
         self.on_planned = on_planned
         self._fresh: list[DagNode] = []
-        # (round, seconds) of every solve, and the coordinator's seconds spent
-        # integrating results: enough to replay the run on more workers.
+        # (solved results integrated when it was asked, seconds) of every solve, in
+        # the order asked, and the coordinator's seconds spent integrating results:
+        # enough to replay the run on more workers (app.benchmark.scaling).
         self.trace: list[tuple[int, float]] = []
         self.integrate_s = 0.0
         self.progress = progress
@@ -307,9 +310,11 @@ class ConditionalPlanner:
         self.root = root
         self._node(root)
         queue: deque[State] = deque([root])
-        pending: dict[Future[BranchResult], State] = {}
+        # Asked and not yet integrated, in the order asked (dicts keep it), each
+        # with how many solved results had been integrated when it was asked.
+        pending: dict[Future[BranchResult], tuple[State, int]] = {}
         first_done = False
-        rounds = 0
+        integrated = 0
         inline = self.engine is None and (self.workers <= 1 or self.inline_s > 0)
         if inline and self.fork_at_start and self.workers > 1:
             # The worker processes are forked now, idle until the switch: forked
@@ -319,68 +324,72 @@ class ConditionalPlanner:
             self._start_pool().submit(int)
         executor = self._inline() if inline else self._executor()
         cpu0 = time.process_time()  # CPU, not wall: a busy machine must not hurry the switch
+        told = 0.0  # the first result is reported at once
         try:
             while (queue or pending) and not self.cancelled:
                 if inline and self.workers > 1 and time.process_time() - cpu0 >= self.inline_s:
-                    # A long plan: on to the worker processes (inline solves leave
-                    # nothing pending between rounds).
+                    # A long plan: on to the worker processes (what was solved inline
+                    # is done, and is integrated as if solved there).
                     inline, executor = False, self._executor()
-                asked = set(pending.values())
-                # Until the first branch reaches a goal, a round solves only the head
-                # of the queue, the continuation of the hoped-for branch: the first
-                # executable branch then waits for its own solves alone, not for a
-                # window of others each time. The rounds still depend on the results
-                # alone, so the plan still depends on the window alone.
+                # The window slides: after each result is integrated, states are asked
+                # until `width` solves are pending again. Results are integrated one at
+                # a time in the order they were asked for, and states are asked only
+                # between two integrations, so what is asked depends on the results
+                # alone, never on which finished first or how many workers there
+                # are: a scenario and a window always give the same plan. No worker
+                # waits for a round's slowest solve, and the coordinator's work
+                # overlaps the workers' solving.
+                # Until the first branch reaches a goal, the window holds only the
+                # head of the queue, the continuation of the hoped-for branch: the
+                # first executable branch waits for its own solves alone.
                 width = self.window if first_done else 1
                 # (A state interchangeable with one asked before takes no place in
                 # the window: it needs no solve of its own.)
-                while queue and len(pending) - len(self._reusing) < width:
-                    state = queue.popleft()
-                    node = self.nodes.get(state)
-                    if node is None or node.action is not None or node.goal:
-                        continue
-                    if state in asked:
-                        continue
-                    asked.add(state)
-                    pending[self._ask(executor, state, frozenset(node.forbidden))] = state
+                if queue and len(pending) - len(self._reusing) < width:
+                    asked = {state for state, _ in pending.values()}
+                    while queue and len(pending) - len(self._reusing) < width:
+                        state = queue.popleft()
+                        node = self.nodes.get(state)
+                        if node is None or node.action is not None or node.goal:
+                            continue
+                        if state in asked:
+                            continue
+                        asked.add(state)
+                        fut = self._ask(executor, state, frozenset(node.forbidden))
+                        pending[fut] = (state, integrated)
                 if not pending:
                     continue
-                # A round's results are integrated together, in the order they
-                # were asked for, so the DAG depends on neither the number of
-                # workers nor which finished first: a scenario and a window
-                # always give the same plan.
-                wait(list(pending), timeout=0.2)
-                if not all(f.done() for f in pending):
-                    if self.progress:
-                        self.progress(self._progress(len(queue) + len(pending), t0))
+                head = next(iter(pending))
+                if not head.done():
+                    if time.perf_counter() - told >= TELL_EVERY_S:
+                        self._tell(t0, len(queue) + len(pending))
+                        told = time.perf_counter()
+                    wait([head], timeout=TELL_EVERY_S)
                     continue
-                done = list(pending)
-                rounds += 1
-                t_round = time.perf_counter()
-                for fut in done:
-                    del pending[fut]
-                    self._reusing.discard(fut)
-                    result = fut.result()
-                    if not result.reused:
-                        self.trace.append((rounds, result.solve_s))
-                        self.solves += 1
-                    self.solve_s += result.solve_s
-                    self.checks += result.checks
-                    ahead, later = self._integrate(result, root)
-                    # The hoped-for branch is continued first: it is the one
-                    # that becomes executable first (anytime planning).
-                    queue.extendleft(reversed(ahead))
-                    queue.extend(later)
-                    if not first_done and self._expected_branch_done(root):
-                        first_done = True
-                        if self.on_first_branch:
-                            self.on_first_branch(self.nodes)
-                if self.on_planned and self._fresh:
-                    self.on_planned(self._fresh)
-                self._fresh = []
-                self.integrate_s += time.perf_counter() - t_round
-                if self.progress:
-                    self.progress(self._progress(len(queue) + len(pending), t0))
+                t_result = time.perf_counter()
+                _, asked_after = pending.pop(head)
+                self._reusing.discard(head)
+                result = head.result()
+                if not result.reused:
+                    self.trace.append((asked_after, result.solve_s))
+                    self.solves += 1
+                    integrated += 1
+                self.solve_s += result.solve_s
+                self.checks += result.checks
+                ahead, later = self._integrate(result, root)
+                # The hoped-for branch is continued first: it is the one that
+                # becomes executable first (anytime planning).
+                queue.extendleft(reversed(ahead))
+                queue.extend(later)
+                if not first_done and self._expected_branch_done(root):
+                    first_done = True
+                    if self.on_first_branch:
+                        self.on_first_branch(self.nodes)
+                self.integrate_s += time.perf_counter() - t_result
+                if t_result - told >= TELL_EVERY_S:
+                    self._tell(t0, len(queue) + len(pending))
+                    told = time.perf_counter()
+            self._tell(t0, len(queue) + len(pending))
         finally:
             self._shutdown()
         if not self.cancelled:
@@ -395,7 +404,7 @@ class ConditionalPlanner:
         forbid: frozenset[str],
     ) -> Future[BranchResult]:
         """The branch of `state`: solved, or renamed from the solve of an
-        interchangeable state asked before (this round or earlier)."""
+        interchangeable state asked before."""
         if self.symmetry is None:
             return executor(state, forbid)
         canon, renaming = self.symmetry.canonical(state)
@@ -577,6 +586,15 @@ class ConditionalPlanner:
         loop = walks.find_cycle(root, successors)
         if loop is not None:
             raise DeadEnd(f"the plan loops back to state {{{', '.join(sorted(loop))}}}")
+
+    def _tell(self, t0: float, open_count: int) -> None:
+        """Hands newly planned nodes to `on_planned` and the progress to `progress`
+        (a few times a second, not per result: they look at the whole DAG)."""
+        if self.on_planned and self._fresh:
+            self.on_planned(self._fresh)
+        self._fresh = []
+        if self.progress:
+            self.progress(self._progress(open_count, t0))
 
     def _progress(self, open_count: int, t0: float) -> Progress:
         done = sum(1 for n in self.nodes.values() if n.action is not None or n.goal)

@@ -293,7 +293,7 @@ def _motion_prefetch(
         backlog.clear()
         # An attach ends at a slot's site, whose reach is asked of the pool: `endpoints`
         # would otherwise check it here, in the planning loop. Until it is answered, the
-        # node waits for the next round.
+        # node waits to be told again.
         checks.prefetch_sites(where for _, _, where in attaches)
         moves = []
         for node, action, where in attaches:

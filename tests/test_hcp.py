@@ -54,9 +54,9 @@ def test_first_branch_is_complete_before_the_rest() -> None:
     assert [a for a in planned if parse_action(a).name not in CONVERSATION] == path
 
 
-def test_rounds_hold_the_first_branch_alone_until_it_reaches_a_goal() -> None:
-    """Before the first branch is complete a round solves one state, the hoped-for
-    branch's continuation; after it, up to a window of states."""
+def test_the_window_holds_the_first_branch_alone_until_it_reaches_a_goal() -> None:
+    """Before the first branch is complete one state is solved at a time, the
+    hoped-for branch's continuation; after it, up to a window of states."""
     from app.benchmark.planner_benchmark import instances, load
 
     sc = load(instances(only=["paper-03"])[0], feasibility="declared")
@@ -75,12 +75,15 @@ def test_rounds_hold_the_first_branch_alone_until_it_reaches_a_goal() -> None:
         planner.on_first_branch = on_first
 
     plan_scenario(sc, workers=1, window=4, planner_hook=hook)
-    sizes: dict[int, int] = {}
-    for number, _ in planners[0].trace:
-        sizes[number] = sizes.get(number, 0) + 1
-    before = {number for number, _ in planners[0].trace[: first_at[0]]}
-    assert len(before) > 3 and all(sizes[n] == 1 for n in before)
-    assert max(sizes[n] for n in sizes if n not in before) == 4
+    trace = planners[0].trace
+
+    def pending(k: int) -> int:
+        """Solves asked and not yet integrated once k results were integrated."""
+        return sum(1 for j, (after, _) in enumerate(trace) if after <= k <= j)
+
+    assert first_at[0] > 3
+    assert all(pending(k) == 1 for k in range(first_at[0]))
+    assert max(pending(k) for k in range(first_at[0], len(trace))) == 4
 
 
 def test_cancel_stops_planning() -> None:

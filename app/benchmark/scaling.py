@@ -1,13 +1,15 @@
 """Scaling on paper: measured with 1 and 2 Ray actors, replayed for 8 to 128 workers.
 
-A plan depends on the window (states solved side by side per round), never on
+A plan depends on the window (how many solves may be pending at once), never on
 the number of workers, so one process planning with the window that N workers
-would use (2N) solves exactly the states N workers would, round by round. Its
-trace (each solve's seconds, by round) is replayed: each round's requests go to
-the least busy of N workers in request order, the round ends with its slowest
-worker, and the coordinator then integrates the results alone. What limits the
-speed-up shows in the table: rounds narrower than the number of workers (the
-frontier), and the integration, which does not shrink with more workers.
+would use (2N) solves exactly the states N workers would, in the same order. Its
+trace (each solve's seconds, and how many results had been integrated when it
+was asked) is replayed: the coordinator asks each state once that many results
+are integrated, free workers take asked states in order, and results are
+integrated in the order asked, each at the coordinator's measured cost. What
+limits the speed-up shows in the table: how busy the workers are (the frontier:
+a state is asked only once the result that opens it is integrated), and the
+integration, which does not shrink with more workers.
 
     python -m app.benchmark.scaling [--only NAME...] [--no-ray]
 """
@@ -32,13 +34,15 @@ DEFAULT_INSTANCES = ("paper-05", "U10")
 
 @dataclass(frozen=True)
 class Trace:
-    rounds: list[list[float]]  # seconds of each solve, per round, in request order
+    # Each solve in the order asked: how many solved results had been integrated
+    # when it was asked, and its seconds.
+    solves: list[tuple[int, float]]
     integrate_s: float
     wall_s: float
 
     @property
-    def solves(self) -> int:
-        return sum(len(r) for r in self.rounds)
+    def solving_s(self) -> float:
+        return sum(seconds for _, seconds in self.solves)
 
 
 def trace(scenario: Scenario, window: int) -> Trace:
@@ -55,23 +59,24 @@ def trace(scenario: Scenario, window: int) -> Trace:
     plan_scenario(scenario, workers=1, window=window, planner_hook=keep)
     wall = time.perf_counter() - t0
     planner = planners[0]
-    rounds: dict[int, list[float]] = {}
-    for number, seconds in planner.trace:
-        rounds.setdefault(number, []).append(seconds)
-    return Trace([rounds[k] for k in sorted(rounds)], planner.integrate_s, wall)
+    return Trace(list(planner.trace), planner.integrate_s, wall)
 
 
 def replay(run: Trace, workers: int, per_request_s: float = 0.0) -> float:
     """Predicted seconds of `run`'s solving and integration on `workers` workers."""
-    total = run.integrate_s
-    for solves in run.rounds:
-        # Least busy worker first (the first of them on a tie), as BranchActors does.
-        busy = [(0.0, i) for i in range(workers)]
-        for seconds in solves:
-            load, i = heapq.heappop(busy)
-            heapq.heappush(busy, (load + seconds + per_request_s, i))
-        total += max(load for load, _ in busy)
-    return total
+    per_result = run.integrate_s / max(1, len(run.solves))
+    # When the first k results were integrated, for every k.
+    integrated = [0.0]
+    # The least busy worker first (the first of them on a tie), as BranchActors does;
+    # asked states are taken in order.
+    free = [(0.0, i) for i in range(workers)]
+    for after, seconds in run.solves:
+        # A state is asked after its opener's result (after <= its own index).
+        at, i = heapq.heappop(free)
+        end = max(at, integrated[after]) + seconds + per_request_s
+        heapq.heappush(free, (end, i))
+        integrated.append(max(end, integrated[-1]) + per_result)
+    return integrated[-1]
 
 
 def measure_ray(scenario: Scenario, actors: int) -> float:
@@ -82,12 +87,12 @@ def measure_ray(scenario: Scenario, actors: int) -> float:
 
 def report(name: str, scenario: Scenario, use_ray: bool) -> str:
     base = trace(scenario, 2)
-    lines = [f"{name}: {base.solves} solves, one process {base.wall_s:.2f} s "
-             f"(solving {sum(map(sum, base.rounds)):.2f} s, integrating {base.integrate_s:.2f} s)"]
+    lines = [f"{name}: {len(base.solves)} solves, one process {base.wall_s:.2f} s "
+             f"(solving {base.solving_s:.2f} s, integrating {base.integrate_s:.2f} s)"]
     overhead = 0.0
     if use_ray:
         ray1, ray2 = measure_ray(scenario, 1), measure_ray(scenario, 2)
-        overhead = max(0.0, (ray1 - base.wall_s) / max(1, base.solves))
+        overhead = max(0.0, (ray1 - base.wall_s) / max(1, len(base.solves)))
         lines.append(f"  measured with Ray: 1 actor {ray1:.2f} s, 2 actors {ray2:.2f} s "
                      f"({ray1 / ray2:.2f}x); {overhead * 1000:.2f} ms per request beyond solving")
     rows: list[tuple[str, ...]] = []
@@ -95,15 +100,14 @@ def report(name: str, scenario: Scenario, use_ray: bool) -> str:
         run = base if workers == 1 else trace(scenario, 2 * workers)
         one = replay(run, 1, overhead)
         predicted = replay(run, workers, overhead)
-        narrow = sum(1 for r in run.rounds if len(r) < workers) / len(run.rounds)
-        width = run.solves / len(run.rounds)
+        busy = (run.solving_s + overhead * len(run.solves)) / (workers * predicted)
         rows.append((
-            str(workers), str(2 * workers), str(run.solves), str(len(run.rounds)),
-            f"{width:.1f}", f"{100 * narrow:.0f} %", f"{predicted:.2f}",
-            f"{one / predicted:.2f}x", f"{100 * run.integrate_s / predicted:.0f} %",
+            str(workers), str(2 * workers), str(len(run.solves)), f"{predicted:.2f}",
+            f"{one / predicted:.2f}x", f"{100 * busy:.0f} %",
+            f"{100 * run.integrate_s / predicted:.0f} %",
         ))  # fmt: skip
-    header = ("workers", "window", "solves", "rounds", "states/round", "rounds < workers",
-              "predicted s", "speed-up", "integration")  # fmt: skip
+    header = ("workers", "window", "solves", "predicted s", "speed-up", "workers busy",
+              "integration")  # fmt: skip
     return "\n".join([*lines, format_table(header, rows)])
 
 

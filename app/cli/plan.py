@@ -43,7 +43,7 @@ def register(parser: argparse.ArgumentParser) -> None:
         "--window",
         type=int,
         default=0,
-        help="states solved side by side per round (0: two per worker, four on benches with "
+        help="how many states may be solving at once (0: two per worker, four on benches with "
         "20 or more goal attachments); the plan depends "
         "on it, not on the number of workers",
     )
