@@ -8,7 +8,9 @@ renaming of interchangeable parts share one solve (`planner.symmetry`). Solves r
 coordinator's process, and in worker processes once planning has taken
 INLINE_SOLVE_S, each holding its own grounded program (ground once, solve many).
 An outcome from which the goal cannot be reached bans the action that led to
-it and plans its parent again; a dead end at the start state is reported.
+it and plans its parent again; a dead end at the start state is reported. A
+branch that leads back to a state before it (a loop: the plan must be a DAG)
+has the action that closes the loop banned, and is planned again.
 """
 
 from __future__ import annotations
@@ -326,7 +328,14 @@ class ConditionalPlanner:
         cpu0 = time.process_time()  # CPU, not wall: a busy machine must not hurry the switch
         told = 0.0  # the first result is reported at once
         try:
-            while (queue or pending) and not self.cancelled:
+            while not self.cancelled:
+                if not (queue or pending):
+                    # Every state is planned; a branch that led back to a state
+                    # before it is planned again without the action that closed
+                    # the loop (the plan must be a DAG), and planning goes on.
+                    queue.extend(self._break_loop())
+                    if not queue:
+                        break
                 if inline and self.workers > 1 and time.process_time() - cpu0 >= self.inline_s:
                     # A long plan: on to the worker processes (what was solved inline
                     # is done, and is integrated as if solved there).
@@ -528,6 +537,27 @@ class ConditionalPlanner:
                     ahead.append(succ)
         return ahead, todo
 
+    def _break_loop(self) -> list[State]:
+        """The state whose action closes a loop, with that action banned there and
+        its plan undone (to plan it again), or nothing if the DAG has no loop."""
+
+        def successors(state: State) -> list[State]:
+            return [succ for _, succ in self.nodes[state].children]
+
+        edge = walks.find_back_edge(self.root, successors)
+        if edge is None:
+            return []
+        self._unplan(edge[0])
+        return [edge[0]]
+
+    def _unplan(self, state: State) -> None:
+        """Bans the action planned at `state` and undoes it there, to plan it again."""
+        node = self.nodes[state]
+        node.forbidden.add(str(node.action))
+        for _, succ in node.children:
+            self.parents[succ].discard(state)
+        node.action, node.children, node.expected = None, [], None
+
     def _dead_end(self, state: State, root: State, horizon: int) -> list[State]:
         """Bans the action that led here at every parent and plans those again."""
         why = f"no way to the goal within {horizon} steps from {{{', '.join(sorted(state))}}}"
@@ -541,13 +571,9 @@ class ConditionalPlanner:
             )
         todo = []
         for parent in list(self.parents.get(state, ())):
-            pnode = self.nodes[parent]
-            if pnode.action is None:
+            if self.nodes[parent].action is None:
                 continue
-            pnode.forbidden.add(str(pnode.action))
-            for _, succ in pnode.children:
-                self.parents[succ].discard(parent)
-            pnode.action, pnode.children, pnode.expected = None, [], None
+            self._unplan(parent)
             todo.append(parent)
         return todo
 

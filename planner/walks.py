@@ -50,6 +50,13 @@ def postorder(root: K, children: Children[K]) -> list[K]:
 
 def find_cycle(root: K, children: Children[K]) -> K | None:
     """A node that a path from `root` reaches twice (a loop), or None."""
+    edge = find_back_edge(root, children)
+    return None if edge is None else edge[1]
+
+
+def find_back_edge(root: K, children: Children[K]) -> tuple[K, K] | None:
+    """An edge (node, child) that closes a loop: the child is on a path from `root`
+    to the node (depth first, children in order), or None."""
     colour: dict[K, int] = {}  # 1: on the current path, 2: finished
     stack: list[tuple[K, list[K], int]] = [(root, list(children(root)), 0)]
     colour[root] = 1
@@ -60,7 +67,7 @@ def find_cycle(root: K, children: Children[K]) -> K | None:
             kid = kids[i]
             state = colour.get(kid)
             if state == 1:
-                return kid
+                return node, kid
             if state is None:
                 colour[kid] = 1
                 stack.append((kid, list(children(kid)), 0))

@@ -7,9 +7,9 @@ from typing import Any
 
 import pytest
 
-from planner import encoding, solver
+from planner import encoding, solver, walks
 from planner.audit import audit
-from planner.hcp import ConditionalPlanner, DagNode, Problem, Progress
+from planner.hcp import ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.planning import PlanningCancelled, plan_scenario
 from planner.vocabulary import CONVERSATION, State, parse_action
 from tests.domain_fixtures import scenario
@@ -84,6 +84,30 @@ def test_the_window_holds_the_first_branch_alone_until_it_reaches_a_goal() -> No
     assert first_at[0] > 3
     assert all(pending(k) == 1 for k in range(first_at[0]))
     assert max(pending(k) for k in range(first_at[0], len(trace))) == 4
+
+
+def test_find_back_edge_names_the_edge_that_closes_a_loop() -> None:
+    loop = {"a": ["b", "c"], "b": ["d"], "c": ["d"], "d": ["b"]}
+    assert walks.find_back_edge("a", loop.__getitem__) == ("d", "b")
+    assert walks.find_cycle("a", loop.__getitem__) == "b"
+    dag = {"a": ["b", "c"], "b": ["d"], "c": ["d"], "d": []}
+    assert walks.find_back_edge("a", dag.__getitem__) is None
+
+
+def test_a_loop_is_planned_again_without_the_action_that_closes_it() -> None:
+    """With initiative the human may pick up a dangerous spare part in their reach.
+    The branches that dodge it lead back to states before them; each is planned
+    again without the action that closed its loop, until the search names the
+    state no plan leaves: the human holding the part (the loop itself was
+    reported before)."""
+    nail = (
+        "[goal]",
+        '[[parts]]\nid = "nail"\nkind = "other"\nclass = "nail"\nregion = "humanOnly"\n'
+        "dangerous = true\n\n[goal]",
+    )
+    with pytest.raises(DeadEnd, match=r"humanHoldingPart\(nail\)") as err:
+        plan_scenario(scenario(nail), workers=1)
+    assert "loops back" not in str(err.value)
 
 
 def test_cancel_stops_planning() -> None:
