@@ -540,11 +540,7 @@ class ConditionalPlanner:
     def _break_loop(self) -> list[State]:
         """The state whose action closes a loop, with that action banned there and
         its plan undone (to plan it again), or nothing if the DAG has no loop."""
-
-        def successors(state: State) -> list[State]:
-            return [succ for _, succ in self.nodes[state].children]
-
-        edge = walks.find_back_edge(self.root, successors)
+        edge = walks.find_back_edge(self.root, self._successors)
         if edge is None:
             return []
         self._unplan(edge[0])
@@ -597,21 +593,18 @@ class ConditionalPlanner:
         return " > ".join(reversed(steps)) or "start"
 
     def _prune(self, root: State) -> None:
-        """Drops nodes no longer reachable (after dead ends) and checks for cycles."""
-
-        def successors(state: State) -> list[State]:
-            return [succ for _, succ in self.nodes[state].children]
-
-        seen = walks.breadth_first(root, successors)
+        """Drops nodes no longer reachable (after dead ends). (`build` has broken
+        every loop before it ends: `_break_loop`.)"""
+        seen = walks.breadth_first(root, self._successors)
         for state in seen:
             node = self.nodes[state]
             if node.action is None and not node.goal:
                 raise DeadEnd(f"state left unplanned: {{{', '.join(sorted(state))}}}")
         kept = set(seen)
         self.nodes = {s: n for s, n in self.nodes.items() if s in kept}
-        loop = walks.find_cycle(root, successors)
-        if loop is not None:
-            raise DeadEnd(f"the plan loops back to state {{{', '.join(sorted(loop))}}}")
+
+    def _successors(self, state: State) -> list[State]:
+        return [succ for _, succ in self.nodes[state].children]
 
     def _tell(self, t0: float, open_count: int) -> None:
         """Hands newly planned nodes to `on_planned` and the progress to `progress`

@@ -48,12 +48,6 @@ def postorder(root: K, children: Children[K]) -> list[K]:
     return order
 
 
-def find_cycle(root: K, children: Children[K]) -> K | None:
-    """A node that a path from `root` reaches twice (a loop), or None."""
-    edge = find_back_edge(root, children)
-    return None if edge is None else edge[1]
-
-
 def find_back_edge(root: K, children: Children[K]) -> tuple[K, K] | None:
     """An edge (node, child) that closes a loop: the child is on a path from `root`
     to the node (depth first, children in order), or None."""

@@ -58,6 +58,7 @@ def test_the_window_holds_the_first_branch_alone_until_it_reaches_a_goal() -> No
     """Before the first branch is complete one state is solved at a time, the
     hoped-for branch's continuation; after it, up to a window of states."""
     from app.benchmark.planner_benchmark import instances, load
+    from app.benchmark.scaling import Trace
 
     sc = load(instances(only=["paper-03"])[0], feasibility="declared")
     planners: list[ConditionalPlanner] = []
@@ -75,21 +76,15 @@ def test_the_window_holds_the_first_branch_alone_until_it_reaches_a_goal() -> No
         planner.on_first_branch = on_first
 
     plan_scenario(sc, workers=1, window=4, planner_hook=hook)
-    trace = planners[0].trace
-
-    def pending(k: int) -> int:
-        """Solves asked and not yet integrated once k results were integrated."""
-        return sum(1 for j, (after, _) in enumerate(trace) if after <= k <= j)
-
+    run = Trace(list(planners[0].trace), 0.0, 0.0)
     assert first_at[0] > 3
-    assert all(pending(k) == 1 for k in range(first_at[0]))
-    assert max(pending(k) for k in range(first_at[0], len(trace))) == 4
+    assert all(run.pending(k) == 1 for k in range(first_at[0]))
+    assert max(run.pending(k) for k in range(first_at[0], len(run.solves))) == 4
 
 
 def test_find_back_edge_names_the_edge_that_closes_a_loop() -> None:
     loop = {"a": ["b", "c"], "b": ["d"], "c": ["d"], "d": ["b"]}
     assert walks.find_back_edge("a", loop.__getitem__) == ("d", "b")
-    assert walks.find_cycle("a", loop.__getitem__) == "b"
     dag = {"a": ["b", "c"], "b": ["d"], "c": ["d"], "d": []}
     assert walks.find_back_edge("a", dag.__getitem__) is None
 

@@ -12,10 +12,7 @@ from planner.scenario import load_scenario
 
 def in_flight(run: Trace) -> int:
     """The most solves ever pending at once in `run` (asked, not yet integrated)."""
-    return max(
-        sum(1 for j, (after, _) in enumerate(run.solves) if after <= k <= j)
-        for k in range(len(run.solves))
-    )
+    return max(run.pending(k) for k in range(len(run.solves)))
 
 
 def test_a_recorded_run_replays_on_one_worker_as_it_ran() -> None:

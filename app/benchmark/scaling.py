@@ -44,6 +44,10 @@ class Trace:
     def solving_s(self) -> float:
         return sum(seconds for _, seconds in self.solves)
 
+    def pending(self, k: int) -> int:
+        """Solves asked and not yet integrated once k of them were integrated."""
+        return sum(1 for j, (after, _) in enumerate(self.solves) if after <= k <= j)
+
 
 def trace(scenario: Scenario, window: int) -> Trace:
     """Plans `scenario` in this process with `window` and records every solve."""
