@@ -80,6 +80,8 @@ class SlotMap:
 
     def state(self, state: Iterable[str]) -> list[str]:
         """`state` as the world holds it: every attachment at its real point."""
+        if not self._real:
+            return list(state)  # the identity: most nodes, no fluent to parse
         out = []
         for text in state:
             fluent = parse_fluent(text)
