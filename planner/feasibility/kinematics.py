@@ -116,30 +116,32 @@ class ArmChain:
                 given += 1
             if given == n or step_no == MAX_ITERATIONS:
                 break
-            # Every search takes a step (finished ones are not updated): on a few
-            # searches, arithmetic is cheaper than picking out the live ones.
-            jac_t = jacobian.transpose(0, 2, 1)
-            rest = -REST_GAIN * q
+            # Only the searches still going take a step: in a pass over many checks
+            # (grasp_ik) most searches end within a few steps.
+            live = np.flatnonzero(active)
+            jac = jacobian[live]
+            jac_t = jac.transpose(0, 2, 1)
+            rest = -REST_GAIN * q[live]
             # The damped least-squares step to the pose plus the pull towards rest in
             # the pose's null space: J+ (e - J r) + r, with J+ = J^T (J J^T + d I)^-1.
-            normal = jacobian @ jac_t + damping[:, None, None] * _EYE6
-            aim = error - np.einsum("nij,nj->ni", jacobian, rest)
+            normal = jac @ jac_t + damping[live][:, None, None] * _EYE6
+            aim = error[live] - np.einsum("nij,nj->ni", jac, rest)
             step = np.einsum("nij,nj->ni", jac_t, np.linalg.solve(normal, aim[..., None])[..., 0])
-            trial = np.clip(q + step + rest, self.lower, self.upper)
-            trial_error, trial_jacobian = self._residual(trial, target_p, target_r)
+            trial = np.clip(q[live] + step + rest, self.lower, self.upper)
+            trial_error, trial_jacobian = self._residual(trial, target_p[live], target_r[live])
             trial_cost = np.einsum("ij,ij->i", trial_error, trial_error)
-            better = active & (trial_cost < cost)
-            worse = active & ~better
-            improved = cost - trial_cost
-            q[better], error[better] = trial[better], trial_error[better]
-            jacobian[better], cost[better] = trial_jacobian[better], trial_cost[better]
-            damping[better] = np.maximum(damping[better] / 3, 1e-7)
-            damping[worse] *= 5
-            ends = better & ((improved < STALL_RATIO * trial_cost) | _met(error))
-            ends |= worse & (damping > 1e3)  # no step, however short, improves
+            better = trial_cost < cost[live]
+            improved = cost[live] - trial_cost
+            up, down = live[better], live[~better]
+            q[up], error[up] = trial[better], trial_error[better]
+            jacobian[up], cost[up] = trial_jacobian[better], trial_cost[better]
+            damping[up] = np.maximum(damping[up] / 3, 1e-7)
+            damping[down] *= 5
+            ends = better & ((improved < STALL_RATIO * trial_cost) | _met(error[live]))
+            ends |= ~better & (damping[live] > 1e3)  # no step, however short, improves
             if step_no + 1 >= HOPELESS_AFTER:
-                ends |= cost > HOPELESS_COST
-            active &= ~ends
+                ends |= cost[live] > HOPELESS_COST
+            active[live[ends]] = False
         for i in range(given, n):
             yield self._answer(q[i], error[i])
 
