@@ -18,7 +18,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from planner.feasibility.reach import POS_TOL, World
+from planner.feasibility.grasp_ik import POS_TOL
+from planner.feasibility.reach import World
 from planner.feasibility.scene import site_of
 from planner.feasibility.slot_map import SLOTS, SlotMap
 from planner.scenario_model import Scenario
@@ -69,7 +70,7 @@ def _check(world: World, node: dict[str, Any], facts: list[str]) -> str:
 
     def grasp(part: str) -> Point:
         box = world.scene.parts[part]
-        x, y, z = world.grasp_poses(box, arm)[0][0]
+        x, y, z = world.ik.grasp_poses(box, arm)[0][0]
         return (x, y, z)
 
     def slot(onto: str, point: str) -> tuple[str, Point]:

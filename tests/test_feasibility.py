@@ -83,8 +83,8 @@ def test_paths_are_collision_free_at_fine_resolution(
         checked += 1
         # The last configuration really puts the gripper over the part, pointing down.
         world.robot.set_arm(arm, path[-1])
-        pos, orn = world.grasp_poses(world.scene.parts[part], arm)[0]
-        assert world._pose_error(arm, pos, orn)[0] < 0.01
+        pos, orn = world.ik.grasp_poses(world.scene.parts[part], arm)[0]
+        assert world.ik.pose_error(arm, pos, orn)[0] < 0.01
         world.robot.go_home()
     assert checked >= 2
 

@@ -43,7 +43,7 @@ def _random_configurations(chain: ArmChain, count: int, seed: int) -> list[list[
 
 @pytest.mark.parametrize("arm", ARMS)
 def test_forward_kinematics_is_pybullets(world: World, arm: str) -> None:
-    chain = world._chains[arm]
+    chain = world.ik.chains[arm]
     for q in [HOME[arm], *_random_configurations(chain, 25, seed=1)]:
         position, rotation = chain.pose(q)
         expected_p, expected_q = _pybullet_pose(world, arm, q)
@@ -56,7 +56,7 @@ def test_forward_kinematics_is_pybullets(world: World, arm: str) -> None:
 def test_ik_meets_poses_the_arm_can_take(world: World, arm: str) -> None:
     """Poses of random configurations are reachable by construction: from home and
     a few random seeds, some search must meet each, and pybullet must agree."""
-    chain = world._chains[arm]
+    chain = world.ik.chains[arm]
     targets = _random_configurations(chain, 12, seed=2)
     seeds = [HOME[arm], *_random_configurations(chain, 5, seed=3)]
     met = 0
@@ -66,14 +66,14 @@ def test_ik_meets_poses_the_arm_can_take(world: World, arm: str) -> None:
         for answer in chain.search(asked, seeds):
             if answer.solved:
                 assert chain.lower.min() - 1e-9 <= min(answer.q)
-                assert world._meets(arm, answer.q, pos.tolist(), orn)
+                assert world.ik.meets(arm, answer.q, pos.tolist(), orn)
                 met += 1
                 break
     assert met >= 11  # a pose at a joint limit may defeat every seed; not more than one
 
 
 def test_answers_come_in_order_and_a_caller_may_stop_early(world: World) -> None:
-    chain = world._chains["left"]
+    chain = world.ik.chains["left"]
     reachable, orn = _pybullet_pose(world, "left", HOME["left"])
     far = (reachable + np.array([2.0, 0.0, 0.0])).tolist()
     asked = [(reachable.tolist(), orn), (far, orn), (reachable.tolist(), orn)]
@@ -89,7 +89,7 @@ def test_answers_come_in_order_and_a_caller_may_stop_early(world: World) -> None
 def test_a_half_turn_of_the_hand_is_corrected(world: World) -> None:
     """The orientation error's logarithm near pi (the other top-down yaw) still
     points somewhere: the search turns the wrist round rather than stalling."""
-    chain = world._chains["right"]
+    chain = world.ik.chains["right"]
     pos, orn = _pybullet_pose(world, "right", HOME["right"])
     yaw_flip = pb.getQuaternionFromEuler([0.0, 0.0, math.pi])
     turned = list(pb.multiplyTransforms([0, 0, 0], orn, [0, 0, 0], yaw_flip)[1])

@@ -26,7 +26,8 @@ from app.retargeting import retargeter_for
 from planner.audit import audit
 from planner.feasibility.cache import CheckCache
 from planner.feasibility.checks import BenchChecks
-from planner.feasibility.reach import POS_TOL, World
+from planner.feasibility.grasp_ik import POS_TOL
+from planner.feasibility.reach import World
 from planner.feasibility.scene import Site, site_of
 from planner.feasibility.slot_map import (
     ROBOT_SLOT,

@@ -6,8 +6,9 @@ reseeds its random numbers from its own arguments (`World.check_reach`,
 `World.move`), so an answer does not depend on which process gave it or what it
 answered before.
 
-Reach checks are asked for in batches (`decide`): the processes take pairs from
-one queue as they become free, report each answer the moment it is known, and
+Reach checks are asked for in batches (`decide`), each pair with the IK answers
+the asking process found for it (`grasp_ik`): the processes take pairs from one
+queue as they become free, report each answer the moment it is known, and
 simplify the paths of the pairs they found reachable only after the queue is
 empty and `release_paths` was called, so planning starts without waiting for
 paths and the first branch need not share the cores with their smoothing.
@@ -18,13 +19,14 @@ from __future__ import annotations
 import multiprocessing as mp
 import queue
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from typing import Any
 
+from planner.feasibility.grasp_ik import GraspIk, IkAnswers, Question
 from planner.feasibility.reach import ReachDecision, ReachResult, Reason, World, robot_only
 from planner.feasibility.robot import BaxterBody
-from planner.feasibility.scene import Site
+from planner.feasibility.scene import Site, part_boxes
 from planner.scenario_model import Scenario
 
 Config = list[float]
@@ -39,6 +41,8 @@ _go: Any = None  # set when the paths may be simplified
 # the processes forked from it find the robot loaded and add only their scene.
 _robots: dict[tuple[float, ...], BaxterBody] = {}
 _robots_lock = threading.Lock()
+# The same robots answer IK here (`CheckPool.first_batches`), one planner at a time.
+_ik_lock = threading.Lock()
 
 
 def _init(scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any, go: Any) -> None:
@@ -60,9 +64,10 @@ def _own_world() -> World:
 def _decide_then_finish() -> dict[Pair, ReachResult]:
     world = _own_world()
     mine: list[tuple[Pair, ReachDecision]] = []
-    while (pair := _pairs.get()) is not None:
+    while (item := _pairs.get()) is not None:
+        pair, given = item
         arm, target = pair
-        decision = world.decide_reach(arm, *_part_and_point(target))
+        decision = world.decide_reach(arm, *_part_and_point(target), ik=given)
         _decided.put((pair, decision.reachable, decision.reason))
         mine.append((pair, decision))
     _go.wait()
@@ -78,6 +83,11 @@ def _decide_then_finish() -> dict[Pair, ReachResult]:
 
 def _reach(arm: str, target: str) -> ReachResult:
     return _own_world().check_reach(arm, *_part_and_point(target))
+
+
+def question(pair: Pair) -> Question:
+    """The reach question of an (arm, part id or Site's text) pair."""
+    return Question(pair[0], *_part_and_point(pair[1]))
 
 
 def _part_and_point(target: str) -> tuple[str, str | None]:
@@ -103,6 +113,8 @@ class CheckPool:
             pose = tuple(scenario.robot.base_pose)
             if pose not in _robots:
                 _robots[pose] = robot_only(list(pose))
+            self._robot = _robots[pose]
+        self._setup = (scenario, options)
         context = mp.get_context("fork")
         self._workers = workers
         self._pairs: Any = context.Queue()
@@ -118,14 +130,28 @@ class CheckPool:
         for _ in range(workers):
             self._pool.submit(_warm_up)
 
-    def decide(self, pairs: Sequence[Pair]) -> list[Future[dict[Pair, ReachResult]]]:
-        """Starts the reach checks of `pairs`; the futures give their full results
-        (with paths), `decisions` the answers as they come."""
-        for pair in pairs:
-            self._pairs.put(pair)
+    def first_batches(
+        self, questions: Iterable[Question]
+    ) -> Iterator[tuple[Question, IkAnswers | None]]:
+        """`GraspIk.first_batches` in this process, while the check processes start."""
+        scenario, options = self._setup
+        with _ik_lock:
+            ik = GraspIk(self._robot, part_boxes(scenario), options.get("seed", 0))
+            yield from ik.first_batches(questions)
+
+    def decide(
+        self, pairs: Iterable[tuple[Pair, IkAnswers | None]]
+    ) -> list[Future[dict[Pair, ReachResult]]]:
+        """Starts the reach checks of `pairs`, each with its first IK answers if known
+        (`first_batches`); the futures give their full results (with paths),
+        `decisions` the answers as they come. The processes take each pair as soon
+        as `pairs` gives it (it may be a generator still solving IK)."""
+        batches = [self._pool.submit(_decide_then_finish) for _ in range(self._workers)]
+        for item in pairs:
+            self._pairs.put(item)
         for _ in range(self._workers):
             self._pairs.put(None)  # one end mark per batch: each stops at one
-        return [self._pool.submit(_decide_then_finish) for _ in range(self._workers)]
+        return batches
 
     def release_paths(self) -> None:
         """Lets the processes simplify the paths they decided (and all later ones)."""

@@ -3,10 +3,12 @@
 `BenchChecks` opens a pybullet `World` (or, with `workers` > 1, a `CheckPool` of
 processes) only on the first cache miss, so a plan whose checks are all cached
 loads neither the robot nor OMPL's planners. `answers` and `prefetch_moves` ask
-for many answers at once, so the pool works on them side by side. `answers`
-returns as soon as every pair is decided: the paths (needed only for the plan's
-motions) are simplified meanwhile, and reach the cache when first asked for or
-when the checks close.
+for many answers at once, so the pool works on them side by side; the IK of all
+the pairs `answers` asks about is solved first, in one pass in this process
+(`grasp_ik`), which answers those out of reach at once. `answers` returns as
+soon as every pair is decided: the paths (needed only for the plan's motions)
+are simplified meanwhile, and reach the cache when first asked for or when the
+checks close.
 
 A motion goes between places: a part id (its work point, as reachability checks
 it) or a `Site` (a connection point where the state puts it: scene.py). Sites are
@@ -15,13 +17,15 @@ reached from this process's world; part-to-part and site motions use the pool.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import time
+from collections.abc import Iterable, Iterator
 from concurrent.futures import Future
 from typing import Any
 
 from planner.feasibility.arms import ARMS, HOME
 from planner.feasibility.cache import CheckCache, geometry_key
-from planner.feasibility.check_pool import CheckPool, Pair
+from planner.feasibility.check_pool import CheckPool, Pair, question
+from planner.feasibility.grasp_ik import IkAnswers
 from planner.feasibility.reach import PlannerName, ReachResult, Reason, World
 from planner.feasibility.scene import Site
 from planner.scenario_model import Scenario
@@ -123,12 +127,50 @@ class BenchChecks:
             if (arm, target) in self._decided or self._known(arm, target):
                 continue
             todo.append((arm, target))
-        if todo and self.pool is not None:
-            batches = self.pool.decide(todo)
-            self._batches.extend(batches)
-            for pair, reachable, reason in self.pool.decisions(len(todo), batches):
-                self._decided[pair] = (reachable, reason)
+        if todo:
+            self._decide(todo)
         return {pair: self._answer(*pair) for pair in pairs}
+
+    def _decide(self, todo: list[Pair]) -> None:
+        """Decides the reach of `todo`: the IK of their first seed batches here, in
+        passes over many of them (`GraspIk.first_batches`), "no IK" at once, the
+        others in the pool side by side as soon as their IK is known (or in this
+        process's world). The pool starts while the first pass runs."""
+        pool = self.pool  # forked now: its processes start while IK runs here
+        by_question = {question(pair): pair for pair in todo}
+        asked: list[Pair] = []
+
+        def kinematic() -> Iterator[tuple[Pair, IkAnswers]]:
+            start = time.perf_counter()
+            ik = self.world.ik if pool is None else pool
+            for count, (q, given) in enumerate(ik.first_batches(by_question), 1):
+                pair = by_question[q]
+                if given is None:
+                    seconds = (time.perf_counter() - start) / count
+                    self._keep(pair, ReachResult(False, "no IK", seconds, None))
+                else:
+                    asked.append(pair)
+                    yield pair, given
+
+        if pool is None:
+            for pair, given in kinematic():
+                q = question(pair)
+                decision = self.world.decide_reach(q.arm, q.part, q.point, ik=given)
+                self._keep(pair, self.world.finish_reach(decision))
+            return
+        batches = pool.decide(kinematic())
+        self._batches.extend(batches)
+        for pair, reachable, reason in pool.decisions(len(asked), batches):
+            self._decided[pair] = (reachable, reason)
+
+    def _keep(self, pair: Pair, result: ReachResult) -> None:
+        """A reach answer of a part or a site (`Pair`), kept and cached."""
+        self.cache.put(self._reach_key(*pair), result.__dict__)
+        site = Site.parse(pair[1])
+        if site is None:
+            self._reach[pair] = result
+        else:
+            self._site_reach[(pair[0], site)] = result
 
     def point_sites(self) -> list[tuple[str, Site]]:
         """Every (arm, point of a fixed part) pair, in file order: where an attachment
@@ -186,13 +228,7 @@ class BenchChecks:
             done.update(batch.result())
         self._batches.clear()
         for pair in list(self._decided):
-            result = done[pair]
-            self.cache.put(self._reach_key(*pair), result.__dict__)
-            site = Site.parse(pair[1])
-            if site is None:
-                self._reach[pair] = result
-            else:
-                self._site_reach[(pair[0], site)] = result
+            self._keep(pair, done[pair])
         self._decided.clear()
 
     def _reach_key(self, arm: str, target: str | Site) -> str:

@@ -15,27 +15,17 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Literal
 
-import numpy as np
-
 from planner.feasibility._bullet import pb
-from planner.feasibility.arms import ARMS, HOME
-from planner.feasibility.kinematics import arm_chain
+from planner.feasibility.arms import HOME
+from planner.feasibility.grasp_ik import IK_HOPELESS, GraspIk, IkAnswers, Question
 from planner.feasibility.path_planner import FoundPath, find_path, finish_path, plan_path, seed_ompl
 from planner.feasibility.robot import BaxterBody, load_robot
-from planner.feasibility.scene import PartBox, Scene, Site, build_scene
-from planner.feasibility.workspace import wrist_bound
+from planner.feasibility.scene import Scene, Site, build_scene
 from planner.scenario_model import Scenario
 
 Reason = Literal["ok", "no IK", "IK in collision", "no path"]
 PlannerName = Literal["RRTConnect", "RRTstar"]
 
-GRASP_CLEARANCE = 0.02  # gripper endpoint this far above the part's top face
-POS_TOL = 0.01  # metres, IK accepted only within this by forward kinematics
-ORN_TOL = 0.10  # radians
-IK_ATTEMPTS = 12
-IK_GIVE_UP_AFTER = 4  # attempts; if none came within IK_HOPELESS the target is out of reach
-IK_HOPELESS = 0.05  # metres
-IK_MORE_ATTEMPTS = 24  # more seeds where every accurate solution collided
 GOALS_WANTED = 3  # collision-free IK goals to try paths to
 
 
@@ -93,10 +83,8 @@ class World:
         self.robot: BaxterBody = robot or load_robot(self.client, scenario.robot.base_pose)
         self.scene: Scene = build_scene(self.client, scenario)
         self._body_part = {b: pid for pid, b in self.scene.bodies.items()}
-        self._reach_radius = {a: self._arm_length(a) for a in ARMS}
-        self._wrist_bound = {a: wrist_bound(self.robot, a, POS_TOL, ORN_TOL) for a in ARMS}
+        self.ik = GraspIk(self.robot, self.scene.parts, seed)
         self._moving = self.robot.arm_links["left"] | self.robot.arm_links["right"]
-        self._chains = {a: arm_chain(self.robot, a) for a in ARMS}
         self._ignore_static_contacts()
 
     def close(self) -> None:
@@ -153,19 +141,21 @@ class World:
         point's site on the part's own footprint (`Site`)."""
         return self.finish_reach(self.decide_reach(arm, part, point))
 
-    def decide_reach(self, arm: str, part: str, point: str | None = None) -> ReachDecision:
+    def decide_reach(
+        self, arm: str, part: str, point: str | None = None, ik: IkAnswers | None = None
+    ) -> ReachDecision:
         """The answer of `check_reach`; its path is made by `finish_reach`, which may
-        come after other queries (the simplifier's random numbers are its own)."""
+        come after other queries (the simplifier's random numbers are its own). `ik`:
+        the answers of the first seed batches, solved beforehand with many other
+        checks' (`GraspIk.first_batches`), else solved here."""
         start = time.perf_counter()
         self.robot.go_home()
-        box = self.scene.parts[part]
-        name = f"{arm}/{part}" if point is None else f"{arm}/{Site(part, point)}"
-        rng = np.random.default_rng([self.seed, zlib.crc32(name.encode())])
+        question = Question(arm, part, point)
         search = _IkSearch()
-        seed_ompl(zlib.crc32(f"{self.seed}/{name}".encode()))
+        seed_ompl(zlib.crc32(f"{self.seed}/{question.name}".encode()))
         # Goals come one at a time: the first one usually has a path, and IK restarts
         # cost more than a path query.
-        for goal in self._ik_goals(arm, box, rng, search, point):
+        for goal in self._ik_goals(question, search, ik):
             found = find_path(
                 lambda q: self.is_valid(arm, q, part),
                 HOME[arm],
@@ -177,7 +167,7 @@ class World:
             )
             if found is not None:
                 self.robot.go_home()
-                seed = zlib.crc32(f"{self.seed}/{name}/simplify".encode())
+                seed = zlib.crc32(f"{self.seed}/{question.name}/simplify".encode())
                 return ReachDecision(True, "ok", time.perf_counter() - start, found, seed)
         self.robot.go_home()
         reason: Reason = (
@@ -234,64 +224,38 @@ class World:
         return (float(state[4][0]), float(state[4][1]), float(state[4][2]))
 
     def site_target(self, site: Site) -> tuple[float, float, float]:
-        """Where the gripper endpoint goes to work at `site` (`grasp_poses`)."""
-        x, y, z = self.grasp_poses(self.scene.parts[site.part], point=site.point)[0][0]
+        """Where the gripper endpoint goes to work at `site` (`GraspIk.grasp_poses`)."""
+        x, y, z = self.ik.grasp_poses(self.scene.parts[site.part], point=site.point)[0][0]
         return (x, y, z)
 
     # -- inverse kinematics --------------------------------------------------
 
-    def grasp_poses(
-        self, box: PartBox, arm: str = "left", point: str | None = None
-    ) -> list[tuple[list[float], list[float]]]:
-        """Top-down grasps over the part's work point (its centre, or the top's connection
-        point nearest `arm`) or over the site of its connection point `point`, fingers
-        closing across its short side (they close along the gripper's y axis); the two
-        yaws are the symmetric grasps."""
-        yaw = box.yaw + (0.0 if box.size[0] >= box.size[1] else math.pi / 2)
-        x, y = box.work_point(self._shoulder(arm)[:2]) if point is None else box.sites()[point]
-        pos = [x, y, box.top_z + GRASP_CLEARANCE]
-        return [
-            (pos, list(pb.getQuaternionFromEuler([math.pi, 0.0, yaw + k * math.pi])))
-            for k in (0, 1)
-        ]
-
     def _ik_goals(
-        self,
-        arm: str,
-        box: PartBox,
-        rng: np.random.Generator,
-        search: _IkSearch,
-        point: str | None = None,
+        self, question: Question, search: _IkSearch, given: IkAnswers | None
     ) -> Iterator[list[float]]:
         """Distinct collision-free IK solutions, up to GOALS_WANTED; `search` records
-        whether any accurate solution existed (to tell "no IK" from "IK in collision")."""
-        shoulder = self._shoulder(arm)
-        poses = self.grasp_poses(box, arm, point)
-        if min(math.dist(shoulder, p) for p, _ in poses) > self._reach_radius[arm]:
-            return  # farther than the arm stretched straight: skip IK
-        if all(self._wrist_bound[arm].out_of_reach(p, o) for p, o in poses):
-            return  # no wrist position can serve the grasp: skip IK (workspace.py)
-        lo, hi = np.array(self.robot.lower[arm]), np.array(self.robot.upper[arm])
+        whether any accurate solution existed (to tell "no IK" from "IK in collision").
+        The batches `given` are not solved again."""
+        arm = question.arm
+        poses = self.ik.poses(question)
+        if not poses:
+            return  # out of reach before any IK (GraspIk.out_of_reach)
         best = math.inf
-        # Seeds come in batches, each solved at once: the first IK_GIVE_UP_AFTER, the
-        # rest of IK_ATTEMPTS, and IK_MORE_ATTEMPTS more where every solution so far
-        # collided (another posture may not).
-        sizes = (IK_GIVE_UP_AFTER - 1, IK_ATTEMPTS - IK_GIVE_UP_AFTER, IK_MORE_ATTEMPTS)
-        for number, size in enumerate(sizes):
+        # Batches of seeds, each solved at once; the third only where every solution
+        # so far collided (another posture may not).
+        for number, seeds in enumerate(self.ik.seed_batches(question)):
             if number == 2 and (search.goals or not search.accurate):
                 return
-            batch = [list(map(float, rng.uniform(lo, hi))) for _ in range(size)]
-            if number == 0:
-                batch.insert(0, list(HOME[arm]))
-            asked = [(pose, seed) for seed in batch for pose in poses]
-            answers = self._chains[arm].search([p for p, _ in asked], [q for _, q in asked])
+            asked = [(pose, seed) for seed in seeds for pose in poses]
+            solved = given.batches[number] if given and number < len(given.batches) else None
+            answers = self.ik.search(arm, asked) if solved is None else (a for _, a in solved)
             for ((pos, orn), _), answer in zip(asked, answers, strict=True):
                 best = min(best, answer.pos_err)
-                if not (answer.solved and self._meets(arm, answer.q, pos, orn)):
+                if not (answer.solved and self.ik.meets(arm, answer.q, pos, orn)):
                     continue
                 search.accurate = True
                 q = answer.q
-                if self.is_valid(arm, q, box.id) and not any(
+                if self.is_valid(arm, q, question.part) and not any(
                     max(abs(a - b) for a, b in zip(q, g, strict=True)) < 1e-3 for g in search.goals
                 ):
                     search.goals.append(q)
@@ -300,41 +264,6 @@ class World:
                         return
             if not search.accurate and best > IK_HOPELESS:
                 return  # every seed ends far from the target: it is out of reach
-
-    def _meets(self, arm: str, q: list[float], pos: list[float], orn: list[float]) -> bool:
-        """Whether pybullet's forward kinematics and joint limits accept `q` as a grasp
-        at (`pos`, `orn`): the judge of every IK answer (`kinematics` only searches)."""
-        self.robot.set_arm(arm, q)
-        pos_err, orn_err = self._pose_error(arm, pos, orn)
-        return pos_err < POS_TOL and orn_err < ORN_TOL and self.robot.within_limits(arm, q)
-
-    def _pose_error(self, arm: str, pos: list[float], orn: list[float]) -> tuple[float, float]:
-        state = pb.getLinkState(
-            self.robot.body,
-            self.robot.end_effector[arm],
-            computeForwardKinematics=True,
-            physicsClientId=self.client,
-        )
-        dot = abs(sum(a * b for a, b in zip(state[5], orn, strict=True)))
-        return math.dist(state[4], pos), 2 * math.acos(min(1.0, dot))
-
-    def _shoulder(self, arm: str) -> tuple[float, float, float]:
-        s1 = self.robot.arm_joints[arm][1]
-        state = pb.getLinkState(self.robot.body, s1, physicsClientId=self.client)
-        return (float(state[4][0]), float(state[4][1]), float(state[4][2]))
-
-    def _arm_length(self, arm: str) -> float:
-        """Shoulder-to-endpoint distance with the arm stretched: nothing farther is reachable."""
-        self.robot.set_arm(arm, [0.0] * 7)
-        state = pb.getLinkState(
-            self.robot.body,
-            self.robot.end_effector[arm],
-            computeForwardKinematics=True,
-            physicsClientId=self.client,
-        )
-        length = math.dist(self._shoulder(arm), state[4]) + 0.01
-        self.robot.go_home()
-        return length
 
 
 def robot_only(base_pose: list[float]) -> BaxterBody:
