@@ -97,11 +97,17 @@ def test_one_operator_many_observers_then_sigterm(browser: Browser, running: Run
     for page, names in ((operator, ()), (observer, ("Open session", "Replay"))):
         for name in ("Plan", "Open file", "Save", *names):
             expect(page.get_by_role("button", name=name, exact=True)).to_be_disabled()
-    # The observer's answer, pause and abort are refused on its page only.
-    for name in (question, "Pause / resume", "Abort"):
+    # The observer's answer, pause and abort are refused on its page only, each
+    # saying what it could not do; the notices then close by themselves.
+    for name, what in (
+        (question, "answer"),
+        ("Pause / resume", "pause or resume"),
+        ("Abort", "abort"),
+    ):
         observer.get_by_role("button", name=name, exact=True).click()
-        expect(observer.get_by_text(REFUSED).first).to_be_visible(timeout=10_000)
-        observer.get_by_text(REFUSED).first.wait_for(state="detached", timeout=15_000)
+        expect(observer.get_by_text(f"only it can {what}.")).to_be_visible(timeout=10_000)
+    assert observer.get_by_text(REFUSED).count() == 3
+    observer.get_by_text(REFUSED).first.wait_for(state="detached", timeout=15_000)
     assert operator.get_by_text(REFUSED).count() == 0
     # The question is still waiting: nothing the observer did reached the executor.
     expect(operator.get_by_role("button", name=question, exact=True)).to_be_visible()
