@@ -39,7 +39,7 @@ class MotionRetargeter:
         return retarget(action, state, real, real_state, self._open())
 
     def reaches(self, arm: str, site: Site) -> bool:
-        return self._open().reach_site(arm, site).reachable
+        return self._open().reaches_site(arm, site)
 
     def _open(self) -> BenchChecks:
         if self._checks is None:

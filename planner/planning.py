@@ -273,8 +273,8 @@ def _motion_prefetch(
     pool while planning goes on; `add_motions` finds them there once the plan is built.
 
     Held back until the first branch exists (its planning comes first on a busy
-    machine) and the reach paths are ready (a motion starts where a reach path ends,
-    and planning must never wait for one)."""
+    machine). A motion starts where a reach path ends, which the reach decision
+    gives before the path is made (`BenchChecks.at`): planning never waits for one."""
     from planner.feasibility.plan_motions import endpoints, slot_sites
 
     backlog: list[DagNode] = []
@@ -283,7 +283,7 @@ def _motion_prefetch(
         if not checks.parallel:
             return  # one process: motions are made when the plan is built
         backlog.extend(n for n in planned if isinstance(n.action, Attach))
-        if not backlog or not first_branch or not checks.paths_ready():
+        if not backlog or not first_branch:
             return
         attaches = [
             (n, n.action, next(slot_sites(n.action, sorted(n.state))))

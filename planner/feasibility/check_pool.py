@@ -35,7 +35,7 @@ Pair = tuple[str, str]  # arm, and a part id or a Site's text ("top@c2")
 _world: World | None = None
 _setup: tuple[Scenario, dict[str, Any]] | None = None
 _pairs: Any = None  # the queue of pairs to decide; None marks the end of a batch
-_decided: Any = None  # (pair, reachable, reason) back to the parent, as decided
+_decided: Any = None  # (pair, reachable, reason, goal) back to the parent, as decided
 _go: Any = None  # set when the paths may be simplified
 # Baxter loaded once per base pose in the process that makes pools, never used there:
 # the processes forked from it find the robot loaded and add only their scene.
@@ -68,7 +68,7 @@ def _decide_then_finish() -> dict[Pair, ReachResult]:
         pair, given = item
         arm, target = pair
         decision = world.decide_reach(arm, *_part_and_point(target), ik=given)
-        _decided.put((pair, decision.reachable, decision.reason))
+        _decided.put((pair, decision.reachable, decision.reason, decision.goal))
         mine.append((pair, decision))
     _go.wait()
     assert _setup is not None
@@ -159,19 +159,20 @@ class CheckPool:
 
     def decisions(
         self, count: int, batches: Sequence[Future[dict[Pair, ReachResult]]]
-    ) -> Iterator[tuple[Pair, bool, Reason]]:
-        """The next `count` answers, in the order they were decided."""
+    ) -> Iterator[tuple[Pair, bool, Reason, Config | None]]:
+        """The next `count` answers, in the order they were decided, each with where
+        the arm will stand (`ReachDecision.goal`)."""
         for _ in range(count):
             while True:
                 try:
-                    pair, reachable, reason = self._decided.get(timeout=0.5)
+                    pair, reachable, reason, goal = self._decided.get(timeout=0.5)
                     break
                 except queue.Empty:
                     # A process that died never answers: its batch says why.
                     for batch in batches:
                         if batch.done() and batch.exception() is not None:
                             raise RuntimeError("a check process failed") from batch.exception()
-            yield pair, reachable, reason
+            yield pair, reachable, reason, goal
 
     def reach(self, arm: str, target: str) -> Future[ReachResult]:
         """One reach check with its path, outside any batch (a part id or a Site's text)."""

@@ -62,6 +62,8 @@ class BenchChecks:
         self._site_reach: dict[tuple[str, Site], ReachResult] = {}
         # Decided in the pool, their paths still being made by `_batches`.
         self._decided: dict[Pair, tuple[bool, Reason]] = {}
+        # Where an arm stands at a place decided in the pool, before its path is made.
+        self._goals: dict[Pair, Config] = {}
         self._batches: list[Future[dict[Pair, ReachResult]]] = []
         self._move_pending: dict[Move, Future[list[Config] | None]] = {}
         self._site_pending: dict[tuple[str, Site], Future[ReachResult]] = {}
@@ -160,8 +162,10 @@ class BenchChecks:
             return
         batches = pool.decide(kinematic())
         self._batches.extend(batches)
-        for pair, reachable, reason in pool.decisions(len(asked), batches):
+        for pair, reachable, reason, goal in pool.decisions(len(asked), batches):
             self._decided[pair] = (reachable, reason)
+            if goal is not None:
+                self._goals[pair] = goal
 
     def _keep(self, pair: Pair, result: ReachResult) -> None:
         """A reach answer of a part or a site (`Pair`), kept and cached."""
@@ -215,10 +219,6 @@ class BenchChecks:
         if self._pool is not None:
             self._pool.release_paths()
 
-    def paths_ready(self) -> bool:
-        """True when the reach paths are at hand (`at` and `move` would not wait)."""
-        return all(batch.done() for batch in self._batches)
-
     def _collect(self) -> None:
         """Waits for the pool's batches and keeps (and caches) their full results,
         in the order the pairs were asked for, not the order they finished."""
@@ -257,6 +257,11 @@ class BenchChecks:
             self._site_reach[(arm, site)] = ReachResult(**stored)
         return stored is not None
 
+    def reaches_site(self, arm: str, site: Site) -> bool:
+        """Whether `arm` reaches `site` (as `reach_site` says), without waiting for
+        the path of an answer the pool decided."""
+        return self._answer(arm, str(site))
+
     def reach_site(self, arm: str, site: Site) -> ReachResult:
         """Can `arm` reach `site` from home, top-down as it reaches a work point?"""
         if (arm, str(site)) in self._decided:
@@ -289,10 +294,12 @@ class BenchChecks:
             self._site_pending[(arm, site)] = self.pool.reach(arm, str(site))
 
     def at(self, arm: str, place: Place | None) -> Config:
-        """Where `arm` stands when working at `place` (None: home)."""
+        """Where `arm` stands when working at `place` (None: home): where its reach
+        path ends, known from the decision before the path is made."""
         if place is None:
             return list(HOME[arm])
-        return self._reach_path(arm, place)[-1]
+        goal = self._goals.get((arm, str(place)))
+        return list(goal) if goal is not None else self._reach_path(arm, place)[-1]
 
     def move(self, arm: str, start: Place | None, goal: Place | None) -> list[Config]:
         """A collision-free path of `arm` from `start` to `goal` (None: home). Paths to

@@ -150,7 +150,7 @@ def _densify(states: list[Config]) -> list[Config]:
     for p, q in zip(states, states[1:], strict=False):
         steps = max(1, math.ceil(max(abs(x - y) for x, y in zip(p, q, strict=True)) / PATH_STEP))
         out.extend(
-            [x + (y - x) * k / steps for x, y in zip(p, q, strict=True)]
-            for k in range(1, steps + 1)
+            [x + (y - x) * k / steps for x, y in zip(p, q, strict=True)] for k in range(1, steps)
         )
+        out.append(list(q))  # the state itself, not x + (y - x) rounded: a path ends at its goal
     return out

@@ -93,7 +93,7 @@ def _slot_maps(
     execution re-targets when it comes the other way."""
 
     def reaches(arm: str, site: Site) -> bool:
-        return checks.reach_site(arm, site).reachable
+        return checks.reaches_site(arm, site)
 
     indegree: dict[str, int] = {}
     for node in plan.nodes.values():
@@ -132,7 +132,7 @@ def endpoints(action: Action, state: list[str], checks: BenchChecks) -> Endpoint
 
     def at_slot(arm: str, held: str, onto: str, point: str) -> Place:
         site = site_of(hands.attached, onto, point)
-        return site if checks.reach_site(arm, site).reachable else held
+        return site if checks.reaches_site(arm, site) else held
 
     match action:
         case Hold(arm, part):

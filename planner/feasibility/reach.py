@@ -45,6 +45,9 @@ class ReachDecision:
     seconds: float
     found: FoundPath | None
     simplify_seed: int = 0
+    # The IK goal the path goes to: where the arm will stand (`finish_reach` keeps
+    # it as the path's last state), known before the path is simplified.
+    goal: list[float] | None = None
 
 
 @dataclass(frozen=True)
@@ -168,7 +171,7 @@ class World:
             if found is not None:
                 self.robot.go_home()
                 seed = zlib.crc32(f"{self.seed}/{question.name}/simplify".encode())
-                return ReachDecision(True, "ok", time.perf_counter() - start, found, seed)
+                return ReachDecision(True, "ok", time.perf_counter() - start, found, seed, goal)
         self.robot.go_home()
         reason: Reason = (
             "no path" if search.goals else "IK in collision" if search.accurate else "no IK"
