@@ -69,6 +69,9 @@ def test_first_batches_decide_as_the_check_does(scenario: Scenario, world: World
         ), q
         if alone.found is not None:
             assert helped.found is not None
-            assert world.finish_reach(helped).path == world.finish_reach(alone).path, q
+            path = world.finish_reach(helped).path
+            assert path == world.finish_reach(alone).path, q
+            # Where the arm stands is known from the decision (BenchChecks.at).
+            assert path is not None and path[-1] == helped.goal, q
     assert {"ok", "no IK"} <= reasons
     assert sum(v is None for v in first.values()) >= 10  # decided without a collision check
