@@ -78,9 +78,9 @@ class _Actor:
     """One actor's state: the branch planner of `planner.hcp`, grounded once per horizon."""
 
     def __init__(self, problem: Problem) -> None:
-        from planner.hcp import _BranchPlanner  # the local workers' own planner
+        from planner.hcp import BranchPlanner  # the local workers' own planner
 
-        self.planner = _BranchPlanner(problem)
+        self.planner = BranchPlanner(problem)
 
     def branch(self, start: State, forbid: frozenset[str]) -> BranchResult:
         return self.planner.branch(start, forbid)

@@ -119,10 +119,10 @@ class Progress:
 
 # --- worker side -----------------------------------------------------------
 
-_worker: _BranchPlanner | None = None
+_worker: BranchPlanner | None = None
 
 
-class _BranchPlanner:
+class BranchPlanner:
     """Per-process solvers, one per horizon, grounded when first needed."""
 
     def __init__(self, problem: Problem) -> None:
@@ -200,9 +200,27 @@ class _BranchPlanner:
             horizon *= 2
 
 
+def ground_ahead(problem: Problem) -> Future[BranchPlanner]:
+    """The solvers of `problem`, grounded in a thread (clingo grounds outside the
+    GIL) before planning starts: a planner given them (`ConditionalPlanner(ahead=...)`)
+    solves at once if its problem is this one, and grounds anew otherwise."""
+    ready: Future[BranchPlanner] = Future()
+
+    def ground() -> None:
+        try:
+            planner = BranchPlanner(problem)
+            planner.solver(problem.horizon)
+            ready.set_result(planner)
+        except BaseException as err:  # noqa: BLE001 - the planner grounds anew
+            ready.set_exception(err)
+
+    threading.Thread(target=ground, daemon=True).start()
+    return ready
+
+
 def _init_worker(problem: Problem) -> None:
     global _worker
-    _worker = _BranchPlanner(problem)
+    _worker = BranchPlanner(problem)
 
 
 def _run_branch(start: State, forbid: frozenset[str]) -> BranchResult:
@@ -258,6 +276,7 @@ class ConditionalPlanner:
         on_planned: Callable[[list[DagNode]], None] | None = None,
         fork_at_start: bool = False,
         symmetry: Symmetry | None = None,
+        ahead: Future[BranchPlanner] | None = None,
     ) -> None:
         self.goal_pairs = tuple(goal_pairs)
         self.workers = workers or mp.cpu_count()
@@ -270,6 +289,9 @@ class ConditionalPlanner:
         self.window = window or (4 if fork_at_start else 2) * self.workers
         self.engine = engine
         self.inline_s = inline_s
+        # Solvers grounded before planning started (`ground_ahead`), maybe for
+        # another problem: used by this process's solving if they fit.
+        self.ahead = ahead
         # A plan known to be large forks its worker processes before planning
         # starts (see `build`); small plans never pay for forking.
         self.fork_at_start = fork_at_start
@@ -440,7 +462,7 @@ class ConditionalPlanner:
         return mine
 
     def _inline(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
-        planner = _BranchPlanner(self.problem)
+        planner = self._grounded_ahead() or BranchPlanner(self.problem)
 
         def inline(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
             fut: Future[BranchResult] = Future()
@@ -448,6 +470,16 @@ class ConditionalPlanner:
             return fut
 
         return inline
+
+    def _grounded_ahead(self) -> BranchPlanner | None:
+        """The solvers `ground_ahead` made, if made for this very problem."""
+        if self.ahead is None:
+            return None
+        try:
+            planner = self.ahead.result()
+        except Exception:  # noqa: BLE001 - grounded anew, where the error shows
+            return None
+        return planner if planner.problem == self.problem else None
 
     def _executor(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
         if self.engine is not None:

@@ -5,13 +5,23 @@ from __future__ import annotations
 import multiprocessing as mp
 import time
 from collections.abc import Callable, Iterator
+from concurrent.futures import Future
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from planner import conversation, diagnosis
-from planner.hcp import INLINE_SOLVE_S, ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
+from planner.hcp import (
+    INLINE_SOLVE_S,
+    BranchPlanner,
+    ConditionalPlanner,
+    DagNode,
+    DeadEnd,
+    Problem,
+    Progress,
+    ground_ahead,
+)
 from planner.plan import Plan, build_plan
 from planner.preprocessing import ProgramRequest, preprocessed
 from planner.scenario import Scenario
@@ -20,6 +30,7 @@ from planner.vocabulary import Attach, State
 
 if TYPE_CHECKING:
     from planner.feasibility.checks import BenchChecks
+    from planner.feasibility.scene import Site
 
 # Steps per milestone solve; a milestone that needs more is retried with 2x, 4x, 8x.
 # Short horizons keep solves at a few milliseconds (paper-05: 1.7 s at 4, 5.0 s at 8).
@@ -99,19 +110,22 @@ def bench_checks(
 
 
 def feasible_pairs(
-    scenario: Scenario, checks: BenchChecks | None = None
+    scenario: Scenario,
+    checks: BenchChecks | None = None,
+    hope: Callable[[dict[tuple[str, str], bool]], None] | None = None,
 ) -> tuple[frozenset[tuple[str, str]], float]:
     """(arm, part) pairs the robot can reach, and the seconds spent checking them.
 
     Declared scenarios (no `checks`, see `bench_checks`) answer from their table;
     geometric ones ask `checks` once per pair, in the parent process, so workers share
-    the answers.
+    the answers (`hope`: see `BenchChecks.answers`).
     """
     if checks is None:
         return frozenset(scenario.reachable_pairs()), 0.0
     t0 = time.perf_counter()
     # Answers alone: the paths of the pool's checks are made while planning runs.
-    pairs = frozenset(pair for pair, reachable in checks.answers().items() if reachable)
+    answers = checks.answers(hope)
+    pairs = frozenset(pair for pair, reachable in answers.items() if reachable)
     return pairs, time.perf_counter() - t0
 
 
@@ -120,10 +134,34 @@ def point_facts(scenario: Scenario, checks: BenchChecks | None) -> list[str]:
     geometry, where the scenario asks for them (`[feasibility] points = "each"`)."""
     if checks is None or scenario.feasibility.points != "each":
         return []
-    answers = checks.point_answers()
+    return _point_facts(checks.point_answers())
+
+
+def _point_facts(answers: dict[tuple[str, Site], bool]) -> list[str]:
     facts = {f"pointsChecked({site.part})" for _, site in answers}
     facts |= {f"pointReach({arm},{s.part},{s.point})" for (arm, s), ok in answers.items() if ok}
     return sorted(facts)
+
+
+def _problem(
+    scenario: Scenario,
+    reachable: frozenset[tuple[str, str]],
+    points: list[str],
+    start: State | None,
+    skip: tuple[str, ...],
+) -> tuple[list[str], Problem]:
+    """The plan's facts and the problem the planner solves, from the reach answers."""
+    facts = sorted([*scenario.facts(reachable), *points])
+    if start is not None:
+        facts = [*facts, "resumed"]  # conversation.lp: the robot has greeted already
+    problem = Problem(
+        facts=tuple(f for f in facts if not f.startswith("reachable(")),
+        reachable=reachable,
+        horizon=DEFAULT_HORIZON,
+        skip=skip,
+        short_first=short_first(scenario, reachable),
+    )
+    return facts, problem
 
 
 def plan_scenario(
@@ -189,20 +227,31 @@ def _plan(
     symmetry: bool = True,
 ) -> PlanResult:
     t0 = time.perf_counter()
-    reachable, checks_s = feasible_pairs(scenario, checks)
+    large = len(scenario.goal_pairs()) >= LARGE_BENCH_GOALS
+    ahead: Future[BranchPlanner] | None = None
+
+    def hope(answers: dict[tuple[str, str], bool]) -> None:
+        """While the check processes decide, the program of the answers hoped for is
+        ground (the first branch waits for grounding otherwise); planning uses it
+        only if the answers are those."""
+        nonlocal ahead
+        if large or cluster is not None:
+            return  # their programs are made elsewhere (preprocessing, actors)
+        from planner.feasibility.scene import Site
+
+        reach = frozenset(p for p, ok in answers.items() if ok and Site.parse(p[1]) is None)
+        sites = {(m, s): ok for (m, t), ok in answers.items() if (s := Site.parse(t)) is not None}
+        try:
+            _, hoped = _problem(scenario, reach, _point_facts(sites), start, skip)
+        except Exception:  # noqa: BLE001 - the same facts from the real answers say why
+            return
+        shared = (workers or mp.cpu_count()) > 1  # as ConditionalPlanner solves
+        ahead = ground_ahead(replace(hoped, history_free=True) if shared else hoped)
+
+    reachable, checks_s = feasible_pairs(scenario, checks, hope)
     # A cause found before the search is an answer in microseconds, not minutes.
     diagnosis.check(scenario, reachable)
-    facts = sorted([*scenario.facts(reachable), *point_facts(scenario, checks)])
-    if start is not None:
-        facts = [*facts, "resumed"]  # conversation.lp: the robot has greeted already
-    problem = Problem(
-        facts=tuple(f for f in facts if not f.startswith("reachable(")),
-        reachable=reachable,
-        horizon=DEFAULT_HORIZON,
-        skip=skip,
-        short_first=short_first(scenario, reachable),
-    )
-    large = len(scenario.goal_pairs()) >= LARGE_BENCH_GOALS
+    facts, problem = _problem(scenario, reachable, point_facts(scenario, checks), start, skip)
     if large:
         problem = replace(problem, programs=preprocessed_programs(problem))
     first: list[float] = []
@@ -234,6 +283,7 @@ def _plan(
         on_planned=None if checks is None else _motion_prefetch(checks, first),
         fork_at_start=large,
         symmetry=Symmetry.of(problem.facts, reachable) if symmetry else None,
+        ahead=ahead,
     )
     if planner_hook:
         planner_hook(planner)

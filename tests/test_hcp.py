@@ -141,7 +141,7 @@ def test_grounds_once_per_horizon_and_solves_many_times(monkeypatch: pytest.Monk
 
 
 def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> None:
-    from planner.hcp import DeadEnd, Problem, _BranchPlanner
+    from planner.hcp import BranchPlanner, DeadEnd, Problem
     from planner.planning import DEFAULT_HORIZON, initial_state
 
     sc = scenario()
@@ -149,7 +149,7 @@ def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> N
     facts = tuple(f for f in sc.facts(reach) if not f.startswith("reachable("))
     problem = Problem(facts, reach, DEFAULT_HORIZON)
     planner = ConditionalPlanner(problem, sc.goal_pairs(), workers=1)
-    worker = _BranchPlanner(problem)
+    worker = BranchPlanner(problem)
     root = initial_state(sc)
     planner.root = root
     planner._node(root)
@@ -288,3 +288,27 @@ def test_the_step_priority_counts_steps_alone() -> None:
     at_steps = [(body, weight) for body, weight, p in weak if p == solver.STEP_PRIORITY]
     assert at_steps == [("occurs(T)", "1")]
     assert {p for _, _, p in weak} >= {solver.STEP_PRIORITY + 1}
+
+
+def test_solvers_ground_ahead_serve_only_their_own_problem() -> None:
+    """`ground_ahead` solvers made for the hoped-for answers are used when those are
+    the answers, and ignored otherwise: the plan is the same either way."""
+    from dataclasses import replace
+
+    from planner.hcp import ground_ahead
+    from planner.planning import DEFAULT_HORIZON, initial_state
+
+    sc = scenario()
+    reach = frozenset(sc.reachable_pairs())
+    facts = tuple(f for f in sc.facts(reach) if not f.startswith("reachable("))
+    problem = Problem(facts, reach, DEFAULT_HORIZON)
+    other = replace(problem, reachable=reach - {min(reach)})
+    plans = []
+    for ahead in (None, ground_ahead(problem), ground_ahead(other)):
+        planner = ConditionalPlanner(problem, sc.goal_pairs(), workers=1, ahead=ahead)
+        planner.build(initial_state(sc))
+        used = planner._grounded_ahead()
+        if ahead is not None:
+            assert (used is ahead.result()) == (ahead.result().problem == problem)
+        plans.append({s: (str(n.action), sorted(n.children)) for s, n in planner.nodes.items()})
+    assert plans[0] == plans[1] == plans[2]

@@ -18,7 +18,7 @@ reached from this process's world; part-to-part and site motions use the pool.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future
 from typing import Any
 
@@ -118,10 +118,15 @@ class BenchChecks:
         self._reach[(arm, part)] = result
         return result
 
-    def answers(self) -> dict[Pair, bool]:
+    def answers(self, hope: Callable[[dict[Pair, bool]], None] | None = None) -> dict[Pair, bool]:
         """Whether each arm reaches each part (every pair, in file order), without
         waiting for the paths of the pool's checks. The points of fixed parts
-        (`point_answers`) are decided in the same batch."""
+        (`point_answers`) are decided in the same batch.
+
+        `hope` is told, while the pool checks paths, the answers hoped for: every
+        pair (points too, as Site texts) with an IK answer that meets its grasp
+        counted reachable (on the paper's benches, every one is), so that what
+        follows from them can start (`hcp.ground_ahead`)."""
         pairs = self.pairs()
         points = [(arm, str(site)) for arm, site in self.point_sites()]
         todo = []
@@ -130,10 +135,15 @@ class BenchChecks:
                 continue
             todo.append((arm, target))
         if todo:
-            self._decide(todo)
+
+            def hoped(asked: set[Pair]) -> None:
+                if hope is not None:
+                    hope({p: p in asked or self._answer(*p) for p in pairs + points})
+
+            self._decide(todo, hoped)
         return {pair: self._answer(*pair) for pair in pairs}
 
-    def _decide(self, todo: list[Pair]) -> None:
+    def _decide(self, todo: list[Pair], hoped: Callable[[set[Pair]], None]) -> None:
         """Decides the reach of `todo`: the IK of their first seed batches here, in
         passes over many of them (`GraspIk.first_batches`), "no IK" at once, the
         others in the pool side by side as soon as their IK is known (or in this
@@ -162,6 +172,7 @@ class BenchChecks:
             return
         batches = pool.decide(kinematic())
         self._batches.extend(batches)
+        hoped(set(asked))  # the IK is done: these are in the pool
         for pair, reachable, reason, goal in pool.decisions(len(asked), batches):
             self._decided[pair] = (reachable, reason)
             if goal is not None:
