@@ -200,6 +200,9 @@ class BranchPlanner:
             horizon *= 2
 
 
+GROUND_AHEAD_THREAD = "tandem-ground-ahead"
+
+
 def ground_ahead(problem: Problem) -> Future[BranchPlanner]:
     """The solvers of `problem`, grounded in a thread (clingo grounds outside the
     GIL) before planning starts: a planner given them (`ConditionalPlanner(ahead=...)`)
@@ -210,11 +213,12 @@ def ground_ahead(problem: Problem) -> Future[BranchPlanner]:
         try:
             planner = BranchPlanner(problem)
             planner.solver(problem.horizon)
+            planner.step.get()  # its own thread: done too when this future is
             ready.set_result(planner)
         except BaseException as err:  # noqa: BLE001 - the planner grounds anew
             ready.set_exception(err)
 
-    threading.Thread(target=ground, daemon=True).start()
+    threading.Thread(target=ground, name=GROUND_AHEAD_THREAD, daemon=True).start()
     return ready
 
 

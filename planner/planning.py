@@ -5,7 +5,7 @@ from __future__ import annotations
 import multiprocessing as mp
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import Future
+from concurrent.futures import Future, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -248,72 +248,78 @@ def _plan(
         shared = (workers or mp.cpu_count()) > 1  # as ConditionalPlanner solves
         ahead = ground_ahead(replace(hoped, history_free=True) if shared else hoped)
 
-    reachable, checks_s = feasible_pairs(scenario, checks, hope)
-    # A cause found before the search is an answer in microseconds, not minutes.
-    diagnosis.check(scenario, reachable)
-    facts, problem = _problem(scenario, reachable, point_facts(scenario, checks), start, skip)
-    if large:
-        problem = replace(problem, programs=preprocessed_programs(problem))
-    first: list[float] = []
-
-    def on_first(_: dict[State, DagNode]) -> None:
-        first.append(time.perf_counter() - t0)
-        if checks is not None:
-            checks.release_paths()  # smoothing the reach paths may take the cores now
-
-    engine = None
-    if cluster is not None:
-        # Imported only here: without --cluster, Ray is never loaded.
-        from planner import cluster as ray_cluster
-
-        ray_cluster.connect(cluster)
-        workers = workers or ray_cluster.cluster_cpus()
-        # Actors solve with answers that depend on the state alone (hcp.Problem).
-        problem = replace(problem, history_free=True)
-        engine = ray_cluster.BranchActors(problem, workers)
-    planner = ConditionalPlanner(
-        problem,
-        scenario.goal_pairs(),
-        workers=workers,
-        progress=progress,
-        on_first_branch=on_first,
-        window=window,
-        engine=engine,
-        inline_s=inline_s,
-        on_planned=None if checks is None else _motion_prefetch(checks, first),
-        fork_at_start=large,
-        symmetry=Symmetry.of(problem.facts, reachable) if symmetry else None,
-        ahead=ahead,
-    )
-    if planner_hook:
-        planner_hook(planner)
     try:
-        root = planner.build(initial_state(scenario) if start is None else start)
-    except DeadEnd as err:
-        raise diagnosis.explain(err, scenario, reachable) from err
-    if planner.cancelled:
-        raise PlanningCancelled(f"cancelled after {planner.solves} solves")
-    plan = build_plan(
-        planner.nodes,
-        root,
-        scenario_name=scenario.name,
-        scenario_sha256=scenario.sha256,
-        facts=facts,
-        timings=(time.perf_counter() - t0, checks_s),
-    )
-    plan = conversation.converse(plan)
-    plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
-    if checks is not None:
-        # Paths only for the actions the plan uses, once it is built: the solver
-        # needs reachability alone.
-        from planner.feasibility.plan_motions import add_motions
+        reachable, checks_s = feasible_pairs(scenario, checks, hope)
+        # A cause found before the search is an answer in microseconds, not minutes.
+        diagnosis.check(scenario, reachable)
+        facts, problem = _problem(scenario, reachable, point_facts(scenario, checks), start, skip)
+        if large:
+            problem = replace(problem, programs=preprocessed_programs(problem))
+        first: list[float] = []
 
-        t_motion = time.perf_counter()
-        add_motions(plan, checks)
-        checks_s += time.perf_counter() - t_motion
+        def on_first(_: dict[State, DagNode]) -> None:
+            first.append(time.perf_counter() - t0)
+            if checks is not None:
+                checks.release_paths()  # smoothing the reach paths may take the cores now
+
+        engine = None
+        if cluster is not None:
+            # Imported only here: without --cluster, Ray is never loaded.
+            from planner import cluster as ray_cluster
+
+            ray_cluster.connect(cluster)
+            workers = workers or ray_cluster.cluster_cpus()
+            # Actors solve with answers that depend on the state alone (hcp.Problem).
+            problem = replace(problem, history_free=True)
+            engine = ray_cluster.BranchActors(problem, workers)
+        planner = ConditionalPlanner(
+            problem,
+            scenario.goal_pairs(),
+            workers=workers,
+            progress=progress,
+            on_first_branch=on_first,
+            window=window,
+            engine=engine,
+            inline_s=inline_s,
+            on_planned=None if checks is None else _motion_prefetch(checks, first),
+            fork_at_start=large,
+            symmetry=Symmetry.of(problem.facts, reachable) if symmetry else None,
+            ahead=ahead,
+        )
+        if planner_hook:
+            planner_hook(planner)
+        try:
+            root = planner.build(initial_state(scenario) if start is None else start)
+        except DeadEnd as err:
+            raise diagnosis.explain(err, scenario, reachable) from err
+        if planner.cancelled:
+            raise PlanningCancelled(f"cancelled after {planner.solves} solves")
+        plan = build_plan(
+            planner.nodes,
+            root,
+            scenario_name=scenario.name,
+            scenario_sha256=scenario.sha256,
+            facts=facts,
+            timings=(time.perf_counter() - t0, checks_s),
+        )
+        plan = conversation.converse(plan)
         plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
-        plan.statistics["checks_s"] = round(checks_s, 3)
-    return PlanResult(plan, first[0] if first else plan.statistics["plan_s"], planner.solves)
+        if checks is not None:
+            # Paths only for the actions the plan uses, once it is built: the solver
+            # needs reachability alone.
+            from planner.feasibility.plan_motions import add_motions
+
+            t_motion = time.perf_counter()
+            add_motions(plan, checks)
+            checks_s += time.perf_counter() - t_motion
+            plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
+            plan.statistics["checks_s"] = round(checks_s, 3)
+        return PlanResult(plan, first[0] if first else plan.statistics["plan_s"], planner.solves)
+    finally:
+        if ahead is not None:
+            # Its thread may still be grounding: clingo must not be inside it when
+            # the process exits (a plan refused by the diagnosis returns at once).
+            wait([ahead])
 
 
 def _motion_prefetch(
