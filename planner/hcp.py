@@ -324,6 +324,7 @@ class ConditionalPlanner:
         self._cancel = threading.Event()
         self.root: State = frozenset()
         self._pool: ProcessPoolExecutor | None = None
+        self._local: BranchPlanner | None = None  # this process's solvers, if it solves
 
     def cancel(self) -> None:
         self._cancel.set()
@@ -466,7 +467,7 @@ class ConditionalPlanner:
         return mine
 
     def _inline(self) -> Callable[[State, frozenset[str]], Future[BranchResult]]:
-        planner = self._grounded_ahead() or BranchPlanner(self.problem)
+        planner = self._local = self._grounded_ahead() or BranchPlanner(self.problem)
 
         def inline(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
             fut: Future[BranchResult] = Future()
@@ -509,6 +510,10 @@ class ConditionalPlanner:
         return self._pool
 
     def _shutdown(self) -> None:
+        if self._local is not None:
+            # Its one-step program grounds in a thread of its own: clingo must not be
+            # inside it when the process exits (a plan can fail within milliseconds).
+            self._local.step.settle()
         if self.engine is not None:
             self.engine.close()
         if self._pool is not None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Iterable, Sequence
-from concurrent.futures import Future
+from concurrent.futures import Future, wait
 from dataclasses import dataclass
 
 import clingo
@@ -98,6 +98,10 @@ class StepProgram:
     def get(self) -> tuple[clingo.Control, dict[str, int]]:
         """The grounded program and its `init/1` externals (waits for the thread)."""
         return self._program.result()
+
+    def settle(self) -> None:
+        """Waits until the thread is done grounding, whether it failed or not."""
+        wait([self._program])
 
 
 @dataclass
