@@ -200,7 +200,11 @@ class BranchPlanner:
             horizon *= 2
 
 
-GROUND_AHEAD_THREAD = "tandem-ground-ahead"
+def as_solved(problem: Problem, workers: int, *, engine: bool = False) -> Problem:
+    """`problem` as a planner with `workers` processes (0: one per core), or an
+    engine, solves it: history-free wherever several solve (`Problem.history_free`)."""
+    shared = engine or (workers or mp.cpu_count()) > 1
+    return replace(problem, history_free=True) if shared else problem
 
 
 def ground_ahead(problem: Problem) -> Future[BranchPlanner]:
@@ -218,7 +222,7 @@ def ground_ahead(problem: Problem) -> Future[BranchPlanner]:
         except BaseException as err:  # noqa: BLE001 - the planner grounds anew
             ready.set_exception(err)
 
-    threading.Thread(target=ground, name=GROUND_AHEAD_THREAD, daemon=True).start()
+    threading.Thread(target=ground, name="tandem-ground-ahead", daemon=True).start()
     return ready
 
 
@@ -284,8 +288,7 @@ class ConditionalPlanner:
     ) -> None:
         self.goal_pairs = tuple(goal_pairs)
         self.workers = workers or mp.cpu_count()
-        shared = engine is not None or self.workers > 1
-        self.problem = replace(problem, history_free=True) if shared else problem
+        self.problem = as_solved(problem, self.workers, engine=engine is not None)
         # How many solves may be pending at once (`build`); the plan depends on it,
         # never on the number of workers or which finished first (0: two per
         # worker, four for a plan known to be large: with rounds, U18 waited less

@@ -20,6 +20,7 @@ from planner.hcp import (
     DeadEnd,
     Problem,
     Progress,
+    as_solved,
     ground_ahead,
 )
 from planner.plan import Plan, build_plan
@@ -245,8 +246,7 @@ def _plan(
             _, hoped = _problem(scenario, reach, _point_facts(sites), start, skip)
         except Exception:  # noqa: BLE001 - the same facts from the real answers say why
             return
-        shared = (workers or mp.cpu_count()) > 1  # as ConditionalPlanner solves
-        ahead = ground_ahead(replace(hoped, history_free=True) if shared else hoped)
+        ahead = ground_ahead(as_solved(hoped, workers))
 
     try:
         reachable, checks_s = feasible_pairs(scenario, checks, hope)
@@ -270,7 +270,7 @@ def _plan(
             ray_cluster.connect(cluster)
             workers = workers or ray_cluster.cluster_cpus()
             # Actors solve with answers that depend on the state alone (hcp.Problem).
-            problem = replace(problem, history_free=True)
+            problem = as_solved(problem, workers, engine=True)
             engine = ray_cluster.BranchActors(problem, workers)
         planner = ConditionalPlanner(
             problem,

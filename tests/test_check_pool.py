@@ -127,3 +127,17 @@ def test_the_pool_leaves_fixed_parts_paths_until_asked(tmp_path: Path) -> None:
     with CheckCache(tmp_path) as cache, BenchChecks(scenario, cache=cache) as later:
         assert later.reach("left", "top").path == expected["left"]  # cached once made
         assert cache.misses == 0
+
+
+def test_a_cold_plan_solves_with_the_program_ground_while_the_checks_decide(
+    tmp_path: Path,
+) -> None:
+    planners: list[ConditionalPlanner] = []
+    scenario = load_scenario(PAPER_DIR / "paper-13.toml")
+    for _ in range(2):  # cold, then warm
+        plan_scenario(scenario, workers=2, cache_dir=tmp_path, planner_hook=planners.append)
+    ahead = planners[0].ahead
+    # Every pair the pool was asked about was reachable: the hoped-for program served.
+    # (The plan is that of a warm cache: the test above.)
+    assert ahead is not None and planners[0]._local is ahead.result()
+    assert planners[1].ahead is None  # every answer cached: nothing to wait for

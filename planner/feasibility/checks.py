@@ -135,15 +135,12 @@ class BenchChecks:
                 continue
             todo.append((arm, target))
         if todo:
-
-            def hoped(asked: set[Pair]) -> None:
-                if hope is not None:
-                    hope({p: p in asked or self._answer(*p) for p in pairs + points})
-
-            self._decide(todo, hoped)
+            self._decide(todo, pairs + points, hope)
         return {pair: self._answer(*pair) for pair in pairs}
 
-    def _decide(self, todo: list[Pair], hoped: Callable[[set[Pair]], None]) -> None:
+    def _decide(
+        self, todo: list[Pair], every: list[Pair], hope: Callable[[dict[Pair, bool]], None] | None
+    ) -> None:
         """Decides the reach of `todo`: the IK of their first seed batches here, in
         passes over many of them (`GraspIk.first_batches`), "no IK" at once, the
         others in the pool side by side as soon as their IK is known (or in this
@@ -172,7 +169,9 @@ class BenchChecks:
             return
         batches = pool.decide(kinematic())
         self._batches.extend(batches)
-        hoped(set(asked))  # the IK is done: these are in the pool
+        if hope is not None:  # the IK is done: the pairs asked are in the pool
+            hoped = set(asked)
+            hope({p: p in hoped or self._answer(*p) for p in every})
         for pair, reachable, reason, goal in pool.decisions(len(asked), batches):
             self._decided[pair] = (reachable, reason)
             if goal is not None:

@@ -252,9 +252,9 @@ class World:
             asked = [(pose, seed) for seed in seeds for pose in poses]
             solved = given.batches[number] if given and number < len(given.batches) else None
             answers = self.ik.search(arm, asked) if solved is None else (a for _, a in solved)
-            for ((pos, orn), _), answer in zip(asked, answers, strict=True):
+            for (pose, _), answer in zip(asked, answers, strict=True):
                 best = min(best, answer.pos_err)
-                if not (answer.solved and self.ik.meets(arm, answer.q, pos, orn)):
+                if not self.ik.accurate(arm, (pose, answer)):
                     continue
                 search.accurate = True
                 q = answer.q
