@@ -8,7 +8,9 @@ import pytest
 
 from planner import paper
 from planner.feasibility import BenchChecks, CheckCache
+from planner.feasibility.check_pool import CheckPool, Pair, question
 from planner.feasibility.plan_motions import add_motions
+from planner.feasibility.reach import ReachResult
 from planner.hcp import ConditionalPlanner, DagNode
 from planner.planning import plan_scenario
 from planner.scenario import load_scenario, parse_scenario
@@ -141,3 +143,35 @@ def test_a_cold_plan_solves_with_the_program_ground_while_the_checks_decide(
     # (The plan is that of a warm cache: the test above.)
     assert ahead is not None and planners[0]._local is ahead.result()
     assert planners[1].ahead is None  # every answer cached: nothing to wait for
+
+
+def test_a_motion_asked_before_the_paths_goes_before_them() -> None:
+    """Plan motions wait for moves; the paths of reach answers are needed last. A move
+    asked before the paths may be made is answered at once (the processes are not
+    held for them), and every path is made later, by the process that decided its
+    pair."""
+    scenario = load_scenario(PAPER_DIR / "paper-05.toml")
+    pool = CheckPool(scenario, {"planner": "RRTConnect", "time_limit": 1.0, "seed": 0}, 2)
+    try:
+        movable = [p.id for p in scenario.parts if p.movable]
+        pairs = [(arm, part) for arm in ("left", "right") for part in movable]
+        by_question = {question(pair): pair for pair in pairs}
+        given = [(by_question[q], ik) for q, ik in pool.first_batches(by_question) if ik]
+        batches = pool.decide(given)
+        goals = {pair: goal for pair, ok, _, goal in pool.decisions(len(given), batches) if ok}
+        left = [part for arm, part in goals if arm == "left"]
+        assert len(left) >= 2
+        a, b = left[:2]
+        start, goal = goals[("left", a)], goals[("left", b)]
+        assert start is not None and goal is not None
+        path = pool.move("left", start, goal, frozenset({a, b})).result(timeout=60)
+        assert path is not None and path[0] == start and path[-1] == goal
+        assert not any(batch.done() for batch in batches)  # no path made yet
+        pool.release_paths()
+        made: dict[Pair, ReachResult] = {}
+        for batch in batches:
+            made.update(batch.result(timeout=120))
+        assert set(made) == {pair for pair, _ in given}
+        assert all(made[pair].path for pair in goals)
+    finally:
+        pool.close()

@@ -8,10 +8,13 @@ answered before.
 
 Reach checks are asked for in batches (`decide`), each pair with the IK answers
 the asking process found for it (`grasp_ik`): the processes take pairs from one
-queue as they become free, report each answer the moment it is known, and
-simplify the paths of the pairs they found reachable only after the queue is
-empty and `release_paths` was called, so planning starts without waiting for
-paths and the first branch need not share the cores with their smoothing.
+queue as they become free and report each answer the moment it is known. The
+path of a reachable pair is simplified later, by the process that decided it
+(its search lives there), one path per job and only after `release_paths`, so
+planning starts without waiting for paths and the first branch need not share
+the cores with their smoothing. Each process has a queue of its own: a motion or
+site check asked for meanwhile goes to the least busy process and runs before
+its next path, since plan motions wait for it and most paths are needed last.
 """
 
 from __future__ import annotations
@@ -19,9 +22,11 @@ from __future__ import annotations
 import multiprocessing as mp
 import queue
 import threading
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
-from typing import Any
+from dataclasses import dataclass, field
+from functools import partial
+from typing import Any, TypeVar
 
 from planner.feasibility.grasp_ik import GraspIk, IkAnswers, Question
 from planner.feasibility.reach import ReachDecision, ReachResult, Reason, World, robot_only
@@ -36,7 +41,8 @@ _world: World | None = None
 _setup: tuple[Scenario, dict[str, Any]] | None = None
 _pairs: Any = None  # the queue of pairs to decide; None marks the end of a batch
 _decided: Any = None  # (pair, reachable, reason, goal) back to the parent, as decided
-_go: Any = None  # set when the paths may be simplified
+# Decided here, their paths not made yet (`_finish` makes them).
+_held: dict[Pair, ReachDecision] = {}
 # Baxter loaded once per base pose in the process that makes pools, never used there:
 # the processes forked from it find the robot loaded and add only their scene.
 _robots: dict[tuple[float, ...], BaxterBody] = {}
@@ -45,10 +51,11 @@ _robots_lock = threading.Lock()
 _ik_lock = threading.Lock()
 
 
-def _init(scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any, go: Any) -> None:
-    global _setup, _world, _pairs, _decided, _go
+def _init(scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any) -> None:
+    global _setup, _world, _pairs, _decided
     _setup, _world = (scenario, options), None
-    _pairs, _decided, _go = pairs, decided, go
+    _pairs, _decided = pairs, decided
+    _held.clear()
 
 
 def _own_world() -> World:
@@ -61,24 +68,30 @@ def _own_world() -> World:
     return _world
 
 
-def _decide_then_finish() -> dict[Pair, ReachResult]:
+def _decide() -> list[Pair]:
+    """Decides pairs from the shared queue until its end mark; returns them in order."""
     world = _own_world()
-    mine: list[tuple[Pair, ReachDecision]] = []
+    mine: list[Pair] = []
     while (item := _pairs.get()) is not None:
         pair, given = item
         arm, target = pair
         decision = world.decide_reach(arm, *_part_and_point(target), ik=given)
         _decided.put((pair, decision.reachable, decision.reason, decision.goal))
-        mine.append((pair, decision))
-    _go.wait()
+        _held[pair] = decision
+        mine.append(pair)
+    return mine
+
+
+def _finish(pair: Pair) -> ReachResult:
+    """The full answer of a pair this process decided, with its path."""
+    world = _own_world()
+    decision = _held.pop(pair)
     assert _setup is not None
     # A fixed part is never held: no motion starts or ends at its work point (attaches
     # go to its points' sites), so its path is not made.
-    fixed = {p.id for p in _setup[0].parts if not p.movable}
-    return {
-        pair: world.answer_only(decision) if pair[1] in fixed else world.finish_reach(decision)
-        for pair, decision in mine
-    }
+    if pair[1] in {p.id for p in _setup[0].parts if not p.movable}:
+        return world.answer_only(decision)
+    return world.finish_reach(decision)
 
 
 def _reach(arm: str, target: str) -> ReachResult:
@@ -105,6 +118,19 @@ def _warm_up() -> bool:
     return True
 
 
+T = TypeVar("T")
+
+
+@dataclass
+class _Batch:
+    """The pairs one process decided in one `decide`, and their full answers."""
+
+    decided: Future[list[Pair]]  # the process's `_decide` job
+    answers: Future[dict[Pair, ReachResult]] = field(default_factory=Future)
+    made: dict[Pair, ReachResult] = field(default_factory=dict)
+    left: list[Pair] | None = None  # the pairs whose paths are still to make
+
+
 class CheckPool:
     """`workers` processes answering `World.check_reach` and `World.move` queries."""
 
@@ -116,19 +142,30 @@ class CheckPool:
             self._robot = _robots[pose]
         self._setup = (scenario, options)
         context = mp.get_context("fork")
-        self._workers = workers
         self._pairs: Any = context.Queue()
         self._decided: Any = context.Queue()
-        self._go: Any = context.Event()
-        self._pool = ProcessPoolExecutor(
-            max_workers=workers,
-            mp_context=context,
-            initializer=_init,
-            initargs=(scenario, options, self._pairs, self._decided, self._go),
-        )
+        # One executor of one process each: a path must be made where its pair was
+        # decided, and every process keeps its own order of work.
+        self._processes = [
+            ProcessPoolExecutor(
+                max_workers=1,
+                mp_context=context,
+                initializer=_init,
+                initargs=(scenario, options, self._pairs, self._decided),
+            )
+            for _ in range(workers)
+        ]
+        # Per process: its batches, and how many jobs it has queued or running.
+        self._batches: list[list[_Batch]] = [[] for _ in range(workers)]
+        self._queued = [0] * workers
+        self._finishing: list[bool] = [False] * workers  # a path job queued or running
+        self._released = False
+        self._closed = False
+        # Taken by the threads that submit and by executors' threads reporting a job done.
+        self._lock = threading.RLock()
         # Every process loads the robot at once, while the first answers are awaited.
-        for _ in range(workers):
-            self._pool.submit(_warm_up)
+        for index in range(workers):
+            self._submit(index, _warm_up)
 
     def first_batches(
         self, questions: Iterable[Question]
@@ -146,16 +183,25 @@ class CheckPool:
         (`first_batches`); the futures give their full results (with paths),
         `decisions` the answers as they come. The processes take each pair as soon
         as `pairs` gives it (it may be a generator still solving IK)."""
-        batches = [self._pool.submit(_decide_then_finish) for _ in range(self._workers)]
+        batches = []
+        with self._lock:
+            for index in range(len(self._processes)):
+                batch = _Batch(self._submit(index, _decide))
+                self._batches[index].append(batch)
+                batch.decided.add_done_callback(partial(self._decide_done, index))
+                batches.append(batch.answers)
         for item in pairs:
             self._pairs.put(item)
-        for _ in range(self._workers):
+        for _ in self._processes:
             self._pairs.put(None)  # one end mark per batch: each stops at one
         return batches
 
     def release_paths(self) -> None:
-        """Lets the processes simplify the paths they decided (and all later ones)."""
-        self._go.set()
+        """Lets the processes make the paths they decided (and all later ones)."""
+        with self._lock:
+            self._released = True
+            for index in range(len(self._processes)):
+                self._schedule(index)
 
     def decisions(
         self, count: int, batches: Sequence[Future[dict[Pair, ReachResult]]]
@@ -176,13 +222,79 @@ class CheckPool:
 
     def reach(self, arm: str, target: str) -> Future[ReachResult]:
         """One reach check with its path, outside any batch (a part id or a Site's text)."""
-        return self._pool.submit(_reach, arm, target)
+        return self._submit(self._least_busy(), _reach, arm, target)
 
     def move(
         self, arm: str, start: Config, goal: Config, parts: frozenset[str]
     ) -> Future[list[Config] | None]:
-        return self._pool.submit(_move, arm, start, goal, parts)
+        return self._submit(self._least_busy(), _move, arm, start, goal, parts)
 
     def close(self) -> None:
-        self._go.set()  # a batch waiting for it would never end
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        with self._lock:
+            self._closed = True
+        for process in self._processes:
+            process.shutdown(wait=False, cancel_futures=True)
+        for process in self._processes:
+            process.shutdown(wait=True)
+        with self._lock:
+            for batches in self._batches:
+                for batch in batches:
+                    if not batch.answers.done():
+                        batch.answers.set_exception(RuntimeError("the check pool closed"))
+
+    # -- the order of work in each process
+    def _least_busy(self) -> int:
+        with self._lock:
+            return min(range(len(self._processes)), key=lambda i: self._queued[i])
+
+    def _submit(self, index: int, job: Callable[..., T], *args: Any) -> Future[T]:
+        with self._lock:
+            future = self._processes[index].submit(job, *args)
+            self._queued[index] += 1
+        future.add_done_callback(partial(self._done, index))
+        return future
+
+    def _done(self, index: int, _: Future[Any]) -> None:
+        with self._lock:
+            self._queued[index] -= 1
+            self._schedule(index)
+
+    def _decide_done(self, index: int, _: Future[list[Pair]]) -> None:
+        self._schedule(index)
+
+    def _schedule(self, index: int) -> None:
+        """Queues the next path of process `index` once it has nothing else to do:
+        motions and site checks asked meanwhile go first."""
+        with self._lock:
+            for batch in self._batches[index]:
+                failed = batch.decided.done() and batch.decided.exception() is not None
+                if failed and not batch.answers.done():
+                    # A process that died deciding: `decisions` must not wait for it.
+                    batch.answers.set_exception(batch.decided.exception())
+            if self._closed or not self._released or self._finishing[index]:
+                return
+            if self._queued[index] > 0:
+                return
+            for batch in self._batches[index]:
+                if batch.answers.done() or not batch.decided.done():
+                    continue
+                if batch.left is None:
+                    batch.left = list(batch.decided.result())
+                if not batch.left:
+                    batch.answers.set_result(batch.made)
+                    continue
+                pair = batch.left.pop(0)
+                self._finishing[index] = True
+                made = self._submit(index, _finish, pair)
+                made.add_done_callback(partial(self._made, index, batch, pair))
+                return
+
+    def _made(self, index: int, batch: _Batch, pair: Pair, made: Future[ReachResult]) -> None:
+        with self._lock:
+            self._finishing[index] = False
+            if made.exception() is not None:
+                if not batch.answers.done():
+                    batch.answers.set_exception(made.exception())
+            else:
+                batch.made[pair] = made.result()
+            self._schedule(index)

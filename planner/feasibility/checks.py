@@ -284,6 +284,9 @@ class BenchChecks:
         if stored is not None:
             result = ReachResult(**stored)
         else:
+            if pending is None and self.pool is not None:
+                # The pool's processes have the robot loaded; this one may not.
+                pending = self.pool.reach(arm, str(site))
             result = (
                 pending.result()
                 if pending is not None
