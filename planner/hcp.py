@@ -6,7 +6,8 @@ from the state after every other outcome, until every leaf is a goal. Each
 distinct state is planned once, so the plan is a DAG; states equal up to a
 renaming of interchangeable parts share one solve (`planner.symmetry`). Solves run in the
 coordinator's process, and in worker processes once planning has taken
-INLINE_SOLVE_S, each holding its own grounded program (ground once, solve many).
+INLINE_SOLVE_S with SWITCH_MIN_OPEN states still open, each holding its own
+grounded program (ground once, solve many).
 An outcome from which the goal cannot be reached bans the action that led to
 it and plans its parent again; a dead end at the start state is reported. A
 branch that leads back to a state before it (a loop: the plan must be a DAG)
@@ -36,6 +37,13 @@ MAX_HORIZON_FACTOR = 8
 # more than most plans take, and on a busy machine every result waits for their
 # scheduling. Where states are solved never changes the plan (the window alone does).
 INLINE_SOLVE_S = 2.0
+# ... and only while this many states at least are open: a plan near its end is
+# finished here. When paper-05 and U7 reach INLINE_SOLVE_S, 60 and 48 states are
+# open and 62 and 42 solves remain (0.3-0.4 s here, against 0.7 CPU-s of forking
+# and grounding twice, beside the check processes' motions): paper-05 cold took
+# 3.34 s, not 3.53 s, solved here to the end (median of 5). U8 and U9 have 122
+# and 128 open then, and 331 and 240 solves to go.
+SWITCH_MIN_OPEN = 100
 # How often planning reports progress and newly planned nodes while it goes on.
 TELL_EVERY_S = 0.1
 
@@ -322,6 +330,7 @@ class ConditionalPlanner:
         self.parents: dict[State, set[State]] = {}
         self.dead_ends: list[str] = []
         self.solves = 0
+        self.sent_away = 0  # states asked of worker processes or an engine
         self.solve_s = 0.0
         self.checks = 0
         self._cancel = threading.Event()
@@ -366,7 +375,12 @@ class ConditionalPlanner:
                     queue.extend(self._break_loop())
                     if not queue:
                         break
-                if inline and self.workers > 1 and time.process_time() - cpu0 >= self.inline_s:
+                if (
+                    inline
+                    and self.workers > 1
+                    and time.process_time() - cpu0 >= self.inline_s
+                    and len(queue) + len(pending) >= SWITCH_MIN_OPEN
+                ):
                     # A long plan: on to the worker processes (what was solved inline
                     # is done, and is integrated as if solved there).
                     inline, executor = False, self._executor()
@@ -395,6 +409,7 @@ class ConditionalPlanner:
                             continue
                         asked.add(state)
                         fut = self._ask(executor, state, frozenset(node.forbidden))
+                        self.sent_away += 0 if inline else 1
                         pending[fut] = (state, integrated)
                 if not pending:
                     continue

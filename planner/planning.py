@@ -194,7 +194,8 @@ def plan_scenario(
     solved side by side (0: two per worker, four on large benches; the plan
     depends on it alone);
     `inline_s` how many seconds of solving this process does before starting the
-    worker processes (hcp.INLINE_SOLVE_S); `symmetry` whether states that differ
+    worker processes (hcp.INLINE_SOLVE_S; only with hcp.SWITCH_MIN_OPEN states
+    open); `symmetry` whether states that differ
     by a renaming of interchangeable parts are solved once (`planner.symmetry`).
     """
     checkers = workers if check_workers is None else check_workers

@@ -45,9 +45,13 @@ def test_one_and_two_ray_actors_give_the_plan_of_local_planning(name: str, tmp_p
     assert two == without
 
 
-def test_local_workers_give_the_same_plan_for_one_window() -> None:
+def test_local_workers_give_the_same_plan_for_one_window(monkeypatch: pytest.MonkeyPatch) -> None:
     # Results are integrated per round in request order and every solve depends on
     # its state alone, so the number of processes does not change the plan.
+    from planner import hcp
+
+    # On to the pool after 0.3 s, however few states are open then.
+    monkeypatch.setattr(hcp, "SWITCH_MIN_OPEN", 0)
     pool = _doc(name="paper/paper-05.toml", workers=2, window=4, inline_s=0)
     assert pool == _doc(name="paper/paper-05.toml", workers=3, window=4, inline_s=0)
     # Nor does solving in this process first and in the pool later, or only here.

@@ -123,6 +123,25 @@ def test_parallel_workers_give_a_sound_plan() -> None:
     assert result.plan.statistics["N"] > result.plan.statistics["dag_nodes"]
 
 
+def test_a_plan_with_few_states_open_is_finished_without_worker_processes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Past its CPU mark (`inline_s`) planning goes on to worker processes only with
+    many states open: forking and grounding twice costs more than a few solves."""
+    from planner import hcp
+
+    planners: list[ConditionalPlanner] = []
+    here = plan_scenario(scenario(), workers=2, inline_s=1e-3, planner_hook=planners.append)
+    assert planners[-1].sent_away == 0
+    monkeypatch.setattr(hcp, "SWITCH_MIN_OPEN", 0)
+    away = plan_scenario(scenario(), workers=2, inline_s=1e-3, planner_hook=planners.append)
+    assert planners[-1].sent_away > 0
+    docs = [here.plan.to_json(), away.plan.to_json()]
+    for doc in docs:
+        doc["stats"] = {k: v for k, v in doc["stats"].items() if not k.endswith("_s")}
+    assert docs[0] == docs[1]
+
+
 def test_grounds_once_per_horizon_and_solves_many_times(monkeypatch: pytest.MonkeyPatch) -> None:
     calls: list[int] = []
     real = encoding.ground
