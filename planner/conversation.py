@@ -10,6 +10,8 @@ paper's columns of the statistics, stay what they were.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 import clingo
 
 from planner import phrases, walks
@@ -19,6 +21,7 @@ from planner.vocabulary import (
     EXPLANATIONS,
     GREETINGS,
     WARNINGS,
+    Action,
     AskHelp,
     Attach,
     Communication,
@@ -42,12 +45,18 @@ _READ: dict[str, tuple[tuple[str, ...], bool]] = {
 _COUNTED = {"GE": GREETINGS, "W": WARNINGS, "X": EXPLANATIONS}
 
 
-def converse(plan: Plan) -> Plan:
-    """`plan` with what the robot says around its actions, by the plan's verbosity."""
+Said = dict[str, list[Communication]]  # by node id: what is said before it, in order
+# What the conversation reads of a node: its id, kind, action and state.
+NodeView = tuple[str, str | None, Action | None, Iterable[str]]
+
+
+def converse(plan: Plan, said: Said | None = None) -> Plan:
+    """`plan` with what the robot says around its actions, by the plan's verbosity;
+    `said`: what `talk_about` found for its nodes, if asked before."""
     facts = frozenset(plan.facts)
-    if "verbosity(terse)" in facts:
-        return plan  # a terse robot says none of it
-    said = _solve(plan)
+    if said is None:
+        views = ((i, n.kind, n.action, n.state) for i, n in plan.nodes.items())
+        said = talk_about(plan.facts, plan.root, views)
     if not said:
         return plan
     language = _language(facts)
@@ -90,9 +99,18 @@ def converse(plan: Plan) -> Plan:
     return out
 
 
-def _solve(plan: Plan) -> dict[str, list[Communication]]:
+def talk_about(facts: Sequence[str], root: str, nodes: Iterable[NodeView]) -> Said:
+    """What is said before each node, in order, by the plan's `facts` (nothing if the
+    robot is terse). It needs the nodes alone, not the plan: planning asks for it in
+    a thread while the plan is built (clingo grounds and solves outside the GIL)."""
+    if "verbosity(terse)" in facts:
+        return {}  # a terse robot says none of it
+    return _solve(facts, root, nodes)
+
+
+def _solve(plan_facts: Sequence[str], root: str, nodes: Iterable[NodeView]) -> Said:
     """What is said before each node, in order."""
-    facts, situations = _node_facts(plan)
+    facts, situations = _node_facts(plan_facts, root, nodes)
     ctl = clingo.Control(["--warn=none"])
     with (encoding_dir() / PROGRAM).open() as f:
         ctl.add("base", [], f.read())
@@ -124,36 +142,38 @@ def _solve(plan: Plan) -> dict[str, list[Communication]]:
     return out
 
 
-def _node_facts(plan: Plan) -> tuple[list[str], dict[str, list[str]]]:
+def _node_facts(
+    plan_facts: Sequence[str], root: str, nodes: Iterable[NodeView]
+) -> tuple[list[str], dict[str, list[str]]]:
     """The facts conversation.lp reads, and the nodes of each situation.
 
     Root and goal nodes are named by their ids. What a node does, what is in the
     hands and what is assembled before it is said once per situation (`s<K>`):
     nodes that share all three get the same talk, and U18's 41,000 nodes are far
     fewer situations (parsing every node's facts took clingo 1.7 s)."""
-    facts = [*plan.facts, f"root({plan.root})"]
+    facts = [*plan_facts, f"root({root})"]
     assemblies: dict[frozenset[str], int] = {}
     situations: dict[tuple[str, tuple[str, ...], int | None], str] = {}
     nodes_of: dict[str, list[str]] = {}
-    for node_id, node in plan.nodes.items():
-        if node.kind == "goal":
+    for node_id, kind, action, state in nodes:
+        if kind == "goal":
             facts.append(f"goalNode({node_id})")
         # Only the nodes and fluents the rules read, and each assembly once: parsing
         # the attached fluents of every node cost more than the rest.
-        read = _READ.get(node.action.name) if node.action is not None else None
+        read = _READ.get(action.name) if action is not None else None
         if read is None:
             continue
         hands, with_assembly = read
         number = None
         if with_assembly:
-            attached = frozenset(f for f in node.state if f.startswith("attached("))
+            attached = frozenset(f for f in state if f.startswith("attached("))
             number = assemblies.setdefault(attached, len(assemblies))
-        held = tuple(sorted(f for f in node.state if f.startswith(hands)))
-        key = (str(node.action), held, number)
+        held = tuple(sorted(f for f in state if f.startswith(hands)))
+        key = (str(action), held, number)
         situation = situations.get(key)
         if situation is None:
             situation = situations[key] = f"s{len(situations)}"
-            facts.append(f"does({situation},{node.action})")
+            facts.append(f"does({situation},{action})")
             facts.extend(f"in({situation},{fluent})" for fluent in held)
             if number is not None:
                 facts.append(f"assembly({situation},{number})")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import multiprocessing as mp
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import Future, wait
+from concurrent.futures import Future, ThreadPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -23,7 +23,7 @@ from planner.hcp import (
     as_solved,
     ground_ahead,
 )
-from planner.plan import Plan, build_plan
+from planner.plan import Plan, build_plan, number_states
 from planner.preprocessing import ProgramRequest, preprocessed
 from planner.scenario import Scenario
 from planner.symmetry import Symmetry
@@ -295,15 +295,21 @@ def _plan(
             raise diagnosis.explain(err, scenario, reachable) from err
         if planner.cancelled:
             raise PlanningCancelled(f"cancelled after {planner.solves} solves")
-        plan = build_plan(
-            planner.nodes,
-            root,
-            scenario_name=scenario.name,
-            scenario_sha256=scenario.sha256,
-            facts=facts,
-            timings=(time.perf_counter() - t0, checks_s),
-        )
-        plan = conversation.converse(plan)
+        # What the robot says is found from the DAG in a thread while the plan is
+        # built: clingo grounds and solves it outside the GIL (U18: 1.1 s of its 3.5 s).
+        ids = number_states(planner.nodes, root)
+        views = [_view(node_id, planner.nodes[state]) for state, node_id in ids.items()]
+        with ThreadPoolExecutor(1, thread_name_prefix="tandem-talk") as talking:
+            said = talking.submit(conversation.talk_about, sorted(facts), ids[root], views)
+            plan = build_plan(
+                planner.nodes,
+                root,
+                scenario_name=scenario.name,
+                scenario_sha256=scenario.sha256,
+                facts=facts,
+                timings=(time.perf_counter() - t0, checks_s),
+            )
+            plan = conversation.converse(plan, said.result())
         plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
         if checks is not None:
             # Paths only for the actions the plan uses, once it is built: the solver
@@ -321,6 +327,12 @@ def _plan(
             # Its thread may still be grounding: clingo must not be inside it when
             # the process exits (a plan refused by the diagnosis returns at once).
             wait([ahead])
+
+
+def _view(node_id: str, node: DagNode) -> conversation.NodeView:
+    """A complete DAG's node as its plan node will read (`build_plan`)."""
+    kind = "goal" if node.goal else (node.kind or "goal")
+    return node_id, kind, None if node.goal else node.action, node.state
 
 
 def _motion_prefetch(

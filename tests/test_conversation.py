@@ -168,3 +168,33 @@ def test_a_plan_from_a_later_state_does_not_greet_again() -> None:
     # (The greeting copied from the first plan also carries that plan's start state.)
     problems = [v.message for v in audit(again.to_json())]
     assert any(m.endswith("said [greet], due []") for m in problems), problems
+
+
+def test_the_talk_found_from_the_search_is_the_talk_of_the_built_plan() -> None:
+    """Planning finds the conversation from the search's DAG while the plan is built
+    (`conversation.talk_about`); it is what the built plan's nodes give."""
+    from planner.conversation import converse
+    from planner.hcp import ConditionalPlanner
+    from planner.plan import build_plan
+
+    planners: list[ConditionalPlanner] = []
+    sc = scenario(CHATTY, NAIL, NO_INITIATIVE)
+    new = plan_scenario(sc, workers=1, planner_hook=planners.append).plan
+    search = planners[0]
+    built = build_plan(
+        search.nodes,
+        search.root,
+        scenario_name=sc.name,
+        scenario_sha256=sc.sha256,
+        facts=new.facts,
+        timings=(0.0, 0.0),
+    )
+    old = converse(built)  # found from the plan's nodes
+    assert new.root == old.root and new.nodes.keys() == old.nodes.keys()
+    fields = ("kind", "action", "state", "children", "say", "why")
+    for node_id, node in new.nodes.items():
+        assert node.model_dump(include=set(fields)) == old.nodes[node_id].model_dump(
+            include=set(fields)
+        )
+    said = [n.action.name for n in new.nodes.values() if n.action and n.action.name in CONVERSATION]
+    assert {"greet", "farewell", "warnDanger", "explainAsk"} <= set(said)
