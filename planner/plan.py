@@ -286,11 +286,13 @@ def build_plan(
     scenario_sha256: str,
     facts: list[str],
     timings: tuple[float, float] | None = None,
+    ids: Mapping[State, str] | None = None,
 ) -> Plan:
-    """The plan of the builder's DAG, nodes numbered breadth-first. `timings`
-    (plan s, checks s) make it complete with statistics; None: a partial plan,
-    where states still open become leaves without an action."""
-    ids = number_states(nodes, root)
+    """The plan of the builder's DAG, nodes numbered breadth-first (`ids`, if
+    numbered already by `number_states`). `timings` (plan s, checks s) make it
+    complete with statistics; None: a partial plan, where states still open become
+    leaves without an action."""
+    ids = number_states(nodes, root) if ids is None else ids
     fact_set = frozenset(facts)
     verbosity = _fact_value(facts, "verbosity") or ""
     language = (_fact_value(facts, "language") or "en-us").strip('"')
@@ -301,7 +303,7 @@ def build_plan(
             # Still open while planning goes on: a leaf for now.
             out[node_id] = PlanNode(kind="open", action=None, state=sorted(state), children=[])
             continue
-        action = None if node.goal else node.action
+        kind, action = kind_and_action(node)
         say = why = None
         # A partial plan is redrawn twice a second while planning goes on: its
         # sentences wait for the complete plan.
@@ -309,7 +311,7 @@ def build_plan(
             why = phrases.why(action, state, fact_set)
             say = phrases.say(action, verbosity, why, language)
         out[node_id] = PlanNode(
-            kind="goal" if node.goal else node.kind or "goal",
+            kind=kind,
             action=action,
             state=sorted(state),
             # While planning goes on, a child added after the numbering waits for
@@ -331,6 +333,13 @@ def build_plan(
         plan.stats = {**tree_stats(plan), "plan_s": round(timings[0], 3)}
         plan.stats["checks_s"] = round(timings[1], 3)
     return plan
+
+
+def kind_and_action(node: DagNode) -> tuple[str, Action | None]:
+    """What a planned DAG node is in the plan: its kind, and its action (none at a goal)."""
+    if node.goal:
+        return "goal", None
+    return node.kind or "goal", node.action
 
 
 def _fact_value(facts: list[str], name: str) -> str | None:

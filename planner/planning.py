@@ -23,7 +23,7 @@ from planner.hcp import (
     as_solved,
     ground_ahead,
 )
-from planner.plan import Plan, build_plan, number_states
+from planner.plan import Plan, build_plan, kind_and_action, number_states
 from planner.preprocessing import ProgramRequest, preprocessed
 from planner.scenario import Scenario
 from planner.symmetry import Symmetry
@@ -308,6 +308,7 @@ def _plan(
                 scenario_sha256=scenario.sha256,
                 facts=facts,
                 timings=(time.perf_counter() - t0, checks_s),
+                ids=ids,
             )
             plan = conversation.converse(plan, said.result())
         plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
@@ -331,8 +332,7 @@ def _plan(
 
 def _view(node_id: str, node: DagNode) -> conversation.NodeView:
     """A complete DAG's node as its plan node will read (`build_plan`)."""
-    kind = "goal" if node.goal else (node.kind or "goal")
-    return node_id, kind, None if node.goal else node.action, node.state
+    return (node_id, *kind_and_action(node), node.state)
 
 
 def _motion_prefetch(

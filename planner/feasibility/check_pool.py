@@ -158,7 +158,9 @@ class CheckPool:
         # Per process: its batches, and how many jobs it has queued or running.
         self._batches: list[list[_Batch]] = [[] for _ in range(workers)]
         self._queued = [0] * workers
-        self._finishing: list[bool] = [False] * workers  # a path job queued or running
+        # A path job whose answer is not kept yet: its process's next path waits for
+        # it, so that a batch is complete only once its last answer is in.
+        self._finishing: list[bool] = [False] * workers
         self._released = False
         self._closed = False
         # Taken by the threads that submit and by executors' threads reporting a job done.
