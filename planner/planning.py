@@ -23,6 +23,7 @@ from planner.hcp import (
     as_solved,
     ground_ahead,
 )
+from planner.hoped_planning import HopedPlanning
 from planner.plan import Plan, build_plan, kind_and_action, number_states
 from planner.preprocessing import ProgramRequest, preprocessed
 from planner.scenario import Scenario
@@ -231,48 +232,17 @@ def _plan(
     t0 = time.perf_counter()
     large = len(scenario.goal_pairs()) >= LARGE_BENCH_GOALS
     ahead: Future[BranchPlanner] | None = None
+    first: list[float] = []
+    root = initial_state(scenario) if start is None else start
+    engine = None
+    hoped: tuple[Problem, HopedPlanning] | None = None  # planning on the hoped answers
 
-    def hope(answers: dict[tuple[str, str], bool]) -> None:
-        """While the check processes decide, the program of the answers hoped for is
-        ground (the first branch waits for grounding otherwise); planning uses it
-        only if the answers are those."""
-        nonlocal ahead
-        if large or cluster is not None:
-            return  # their programs are made elsewhere (preprocessing, actors)
-        from planner.feasibility.scene import Site
+    def on_first(_: dict[State, DagNode]) -> None:
+        first.append(time.perf_counter() - t0)
+        if checks is not None:
+            checks.release_paths()  # smoothing the reach paths may take the cores now
 
-        reach = frozenset(p for p, ok in answers.items() if ok and Site.parse(p[1]) is None)
-        sites = {(m, s): ok for (m, t), ok in answers.items() if (s := Site.parse(t)) is not None}
-        try:
-            _, hoped = _problem(scenario, reach, _point_facts(sites), start, skip)
-        except Exception:  # noqa: BLE001 - the same facts from the real answers say why
-            return
-        ahead = ground_ahead(as_solved(hoped, workers))
-
-    try:
-        reachable, checks_s = feasible_pairs(scenario, checks, hope)
-        # A cause found before the search is an answer in microseconds, not minutes.
-        diagnosis.check(scenario, reachable)
-        facts, problem = _problem(scenario, reachable, point_facts(scenario, checks), start, skip)
-        if large:
-            problem = replace(problem, programs=preprocessed_programs(problem))
-        first: list[float] = []
-
-        def on_first(_: dict[State, DagNode]) -> None:
-            first.append(time.perf_counter() - t0)
-            if checks is not None:
-                checks.release_paths()  # smoothing the reach paths may take the cores now
-
-        engine = None
-        if cluster is not None:
-            # Imported only here: without --cluster, Ray is never loaded.
-            from planner import cluster as ray_cluster
-
-            ray_cluster.connect(cluster)
-            workers = workers or ray_cluster.cluster_cpus()
-            # Actors solve with answers that depend on the state alone (hcp.Problem).
-            problem = as_solved(problem, workers, engine=True)
-            engine = ray_cluster.BranchActors(problem, workers)
+    def planner_for(problem: Problem, reachable: frozenset[tuple[str, str]]) -> ConditionalPlanner:
         planner = ConditionalPlanner(
             problem,
             scenario.goal_pairs(),
@@ -289,8 +259,53 @@ def _plan(
         )
         if planner_hook:
             planner_hook(planner)
+        return planner
+
+    def hope(answers: dict[tuple[str, str], bool]) -> None:
+        """While the check processes decide, the program of the answers hoped for is
+        ground, and planned on (`planner.hoped_planning`)."""
+        nonlocal ahead, hoped
+        if large or cluster is not None:
+            return  # their programs are made elsewhere (preprocessing, actors)
+        from planner.feasibility.scene import Site
+
+        reach = frozenset(p for p, ok in answers.items() if ok and Site.parse(p[1]) is None)
+        sites = {(m, s): ok for (m, t), ok in answers.items() if (s := Site.parse(t)) is not None}
         try:
-            root = planner.build(initial_state(scenario) if start is None else start)
+            _, problem = _problem(scenario, reach, _point_facts(sites), start, skip)
+        except Exception:  # noqa: BLE001 - the same facts from the real answers say why
+            return
+        problem = as_solved(problem, workers)
+        ahead = ground_ahead(problem)
+        hoped = (problem, HopedPlanning(planner_for(problem, reach), root))
+
+    try:
+        reachable, checks_s = feasible_pairs(scenario, checks, hope)
+        # A cause found before the search is an answer in microseconds, not minutes.
+        diagnosis.check(scenario, reachable)
+        facts, problem = _problem(scenario, reachable, point_facts(scenario, checks), start, skip)
+        if large:
+            problem = replace(problem, programs=preprocessed_programs(problem))
+        if cluster is not None:
+            # Imported only here: without --cluster, Ray is never loaded.
+            from planner import cluster as ray_cluster
+
+            ray_cluster.connect(cluster)
+            workers = workers or ray_cluster.cluster_cpus()
+            # Actors solve with answers that depend on the state alone (hcp.Problem).
+            problem = as_solved(problem, workers, engine=True)
+            engine = ray_cluster.BranchActors(problem, workers)
+        planning = hoped[1] if hoped and hoped[0] == as_solved(problem, workers) else None
+        if hoped is not None and planning is None:
+            hoped[1].abandon()  # answers other than the hoped ones: planned anew
+        try:
+            if planning is not None:
+                planning.confirm()
+                planner = planning.planner
+                planning.result()
+            else:
+                planner = planner_for(problem, reachable)
+                planner.build(root)
         except DeadEnd as err:
             raise diagnosis.explain(err, scenario, reachable) from err
         if planner.cancelled:
@@ -324,6 +339,8 @@ def _plan(
             plan.statistics["checks_s"] = round(checks_s, 3)
         return PlanResult(plan, first[0] if first else plan.statistics["plan_s"], planner.solves)
     finally:
+        if hoped is not None:
+            hoped[1].abandon()  # planning failed or was refused before it ended
         if ahead is not None:
             # Its thread may still be grounding: clingo must not be inside it when
             # the process exits (a plan refused by the diagnosis returns at once).

@@ -12,6 +12,7 @@ import hashlib
 import json
 import os
 import sqlite3
+import threading
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -56,13 +57,16 @@ class CheckCache:
     """Key -> JSON value; `directory=None` uses `default_dir()`, ":memory:" keeps nothing."""
 
     def __init__(self, directory: Path | str | None = None) -> None:
+        # Planning may ask from a thread other than the one that opened the cache
+        # (`planner.hoped_planning`): one connection, one caller at a time.
+        self._lock = threading.Lock()
         if directory == ":memory:":
-            self._db = sqlite3.connect(":memory:")
+            self._db = sqlite3.connect(":memory:", check_same_thread=False)
         else:
             folder = Path(directory) if directory is not None else default_dir()
             folder.mkdir(parents=True, exist_ok=True)
             # Several planners may share the file: WAL lets readers run beside a writer.
-            self._db = sqlite3.connect(folder / FILE_NAME, timeout=30.0)
+            self._db = sqlite3.connect(folder / FILE_NAME, timeout=30.0, check_same_thread=False)
             self._db.execute("PRAGMA journal_mode=WAL")
             # A commit need not wait for the disk (a cache: an answer lost with the
             # power is checked again; WAL keeps the file whole either way): the
@@ -73,7 +77,8 @@ class CheckCache:
         self.misses = 0
 
     def get(self, key: str) -> Any:
-        row = self._db.execute("SELECT value FROM checks WHERE key = ?", (key,)).fetchone()
+        with self._lock:
+            row = self._db.execute("SELECT value FROM checks WHERE key = ?", (key,)).fetchone()
         if row is None:
             self.misses += 1
             return None
@@ -81,14 +86,15 @@ class CheckCache:
         return json.loads(row[0])
 
     def put(self, key: str, value: Any) -> None:
-        with self._db:
+        with self._lock, self._db:
             self._db.execute(
                 "INSERT OR REPLACE INTO checks (key, value) VALUES (?, ?)",
                 (key, json.dumps(value, separators=(",", ":"))),
             )
 
     def close(self) -> None:
-        self._db.close()
+        with self._lock:
+            self._db.close()
 
     def __enter__(self) -> CheckCache:
         return self
