@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
 from planner import paper
 from planner.feasibility import BenchChecks, CheckCache
-from planner.feasibility.check_pool import CheckPool, Pair, question
+from planner.feasibility.check_pool import NICENESS, CheckPool, Pair, question
 from planner.feasibility.plan_motions import add_motions
 from planner.feasibility.reach import ReachResult
 from planner.hcp import ConditionalPlanner, DagNode
@@ -173,5 +174,17 @@ def test_a_motion_asked_before_the_paths_goes_before_them() -> None:
             made.update(batch.result(timeout=120))
         assert set(made) == {pair for pair, _ in given}
         assert all(made[pair].path for pair in goals)
+    finally:
+        pool.close()
+
+
+def test_check_processes_leave_the_cores_to_the_planning_process_first() -> None:
+    scenario = load_scenario(PAPER_DIR / "paper-05.toml")
+    pool = CheckPool(scenario, {"planner": "RRTConnect", "time_limit": 1.0, "seed": 0}, 2)
+    try:
+        mine = os.getpriority(os.PRIO_PROCESS, 0)
+        for index in range(2):
+            theirs = pool._submit(index, os.getpriority, os.PRIO_PROCESS, 0).result(timeout=60)
+            assert theirs == min(mine + NICENESS, 19) > mine
     finally:
         pool.close()

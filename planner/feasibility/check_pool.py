@@ -20,6 +20,7 @@ its next path, since plan motions wait for it and most paths are needed last.
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import queue
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -47,12 +48,19 @@ _held: dict[Pair, ReachDecision] = {}
 # the processes forked from it find the robot loaded and add only their scene.
 _robots: dict[tuple[float, ...], BaxterBody] = {}
 _robots_lock = threading.Lock()
+# The check processes' niceness (their scheduling priority, lowered): a plan waits
+# for the planning process far more than for them, so its IK, grounding and
+# solving come first and the checks take the cores it leaves; on 2 cores the
+# three processes used to share them evenly. (Raising it back would need
+# privileges: the processes are new for each bench.)
+NICENESS = 10
 # The same robots answer IK here (`CheckPool.first_batches`), one planner at a time.
 _ik_lock = threading.Lock()
 
 
 def _init(scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any) -> None:
     global _setup, _world, _pairs, _decided
+    os.nice(NICENESS)
     _setup, _world = (scenario, options), None
     _pairs, _decided = pairs, decided
     _held.clear()
