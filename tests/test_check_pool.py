@@ -188,3 +188,22 @@ def test_check_processes_leave_the_cores_to_the_planning_process_first() -> None
             assert theirs == min(mine + NICENESS, 19) > mine
     finally:
         pool.close()
+
+
+def test_the_check_processes_solve_the_ik_as_this_process_does() -> None:
+    from planner.feasibility.grasp_ik import GraspIk
+    from planner.feasibility.reach import robot_only
+    from planner.feasibility.scene import part_boxes
+
+    scenario = load_scenario(PAPER_DIR / "paper-05.toml")
+    pairs = [(arm, p.id) for arm in ("left", "right") for p in scenario.parts]
+    questions = [question(pair) for pair in pairs]
+    here = GraspIk(robot_only(scenario.robot.base_pose), part_boxes(scenario), 0)
+    expected = dict(here.first_batches(questions))
+    pool = CheckPool(scenario, {"planner": "RRTConnect", "time_limit": 1.0, "seed": 0}, 2)
+    try:
+        got = dict(pool.first_batches(questions))
+    finally:
+        pool.close()
+    assert got == expected  # every answer, to the last bit
+    assert sum(a is None for a in got.values()) > 0 and sum(a is not None for a in got.values()) > 0

@@ -6,15 +6,17 @@ reseeds its random numbers from its own arguments (`World.check_reach`,
 `World.move`), so an answer does not depend on which process gave it or what it
 answered before.
 
-Reach checks are asked for in batches (`decide`), each pair with the IK answers
-the asking process found for it (`grasp_ik`): the processes take pairs from one
-queue as they become free and report each answer the moment it is known. The
-path of a reachable pair is simplified later, by the process that decided it
-(its search lives there), one path per job and only after `release_paths`, so
-planning starts without waiting for paths and the first branch need not share
-the cores with their smoothing. Each process has a queue of its own: a motion or
-site check asked for meanwhile goes to the least busy process and runs before
-its next path, since plan motions wait for it and most paths are needed last.
+The IK of a bench's reach questions comes first (`first_batches`), one arm's in
+each process, while the planning process waits for nothing but its answers. Reach
+checks are then asked for in batches (`decide`), each pair with its IK answers
+(`grasp_ik`): the processes take pairs from one queue as they become free and
+report each answer the moment it is known. The path of a reachable pair is
+simplified later, by the process that decided it (its search lives there), one
+path per job and only after `release_paths`, so planning starts without waiting
+for paths and the first branch need not share the cores with their smoothing.
+Each process has a queue of its own: a motion or site check asked for meanwhile
+goes to the least busy process and runs before its next path, since plan motions
+wait for it and most paths are needed last.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import os
 import queue
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Any, TypeVar
@@ -49,13 +51,11 @@ _held: dict[Pair, ReachDecision] = {}
 _robots: dict[tuple[float, ...], BaxterBody] = {}
 _robots_lock = threading.Lock()
 # The check processes' niceness (their scheduling priority, lowered): a plan waits
-# for the planning process far more than for them, so its IK, grounding and
-# solving come first and the checks take the cores it leaves; on 2 cores the
-# three processes used to share them evenly. (Raising it back would need
-# privileges: the processes are new for each bench.)
+# for the planning process far more than for them, so its grounding and solving
+# come first and the checks take the cores it leaves; on 2 cores the three
+# processes used to share them evenly. (Raising it back would need privileges:
+# the processes are new for each bench.)
 NICENESS = 10
-# The same robots answer IK here (`CheckPool.first_batches`), one planner at a time.
-_ik_lock = threading.Lock()
 
 
 def _init(scenario: Scenario, options: dict[str, Any], pairs: Any, decided: Any) -> None:
@@ -121,9 +121,14 @@ def _move(arm: str, start: Config, goal: Config, parts: frozenset[str]) -> list[
     return _own_world().move(arm, start, goal, parts)
 
 
-def _warm_up() -> bool:
-    _own_world()
-    return True
+def _first_batches(questions: list[Question]) -> list[tuple[Question, IkAnswers | None]]:
+    """`GraspIk.first_batches` of `questions` here: it needs the robot and the parts'
+    boxes, not the world."""
+    assert _setup is not None
+    scenario, options = _setup
+    robot = _robots[tuple(scenario.robot.base_pose)]
+    ik = GraspIk(robot, part_boxes(scenario), options.get("seed", 0))
+    return list(ik.first_batches(questions))
 
 
 T = TypeVar("T")
@@ -147,7 +152,6 @@ class CheckPool:
             pose = tuple(scenario.robot.base_pose)
             if pose not in _robots:
                 _robots[pose] = robot_only(list(pose))
-            self._robot = _robots[pose]
         self._setup = (scenario, options)
         context = mp.get_context("fork")
         self._pairs: Any = context.Queue()
@@ -173,18 +177,21 @@ class CheckPool:
         self._closed = False
         # Taken by the threads that submit and by executors' threads reporting a job done.
         self._lock = threading.RLock()
-        # Every process loads the robot at once, while the first answers are awaited.
-        for index in range(workers):
-            self._submit(index, _warm_up)
 
     def first_batches(
         self, questions: Iterable[Question]
     ) -> Iterator[tuple[Question, IkAnswers | None]]:
-        """`GraspIk.first_batches` in this process, while the check processes start."""
-        scenario, options = self._setup
-        with _ik_lock:
-            ik = GraspIk(self._robot, part_boxes(scenario), options.get("seed", 0))
-            yield from ik.first_batches(questions)
+        """`GraspIk.first_batches` in the check processes, each arm's questions in one
+        (a pass serves one arm), asked at once: before `decide`, whose jobs would
+        hold the processes. Each arm's answers come together, the first arm done first."""
+        by_arm: dict[str, list[Question]] = {}
+        for q in questions:
+            by_arm.setdefault(q.arm, []).append(q)
+        solving = [
+            self._submit(index % len(self._processes), _first_batches, asked)
+            for index, asked in enumerate(by_arm.values())
+        ]
+        return (answer for done in as_completed(solving) for answer in done.result())
 
     def decide(
         self, pairs: Iterable[tuple[Pair, IkAnswers | None]]

@@ -4,8 +4,9 @@
 processes) only on the first cache miss, so a plan whose checks are all cached
 loads neither the robot nor OMPL's planners. `answers` and `prefetch_moves` ask
 for many answers at once, so the pool works on them side by side; the IK of all
-the pairs `answers` asks about is solved first, in one pass in this process
-(`grasp_ik`), which answers those out of reach at once. `answers` returns as
+the pairs `answers` asks about is solved first, in one pass per arm (`grasp_ik`;
+in the pool's processes if there is a pool), which answers those out of reach
+at once. `answers` returns as
 soon as every pair is decided: the paths (needed only for the plan's motions)
 are simplified meanwhile, and reach the cache when first asked for or when the
 checks close.
@@ -141,18 +142,19 @@ class BenchChecks:
     def _decide(
         self, todo: list[Pair], every: list[Pair], hope: Callable[[dict[Pair, bool]], None] | None
     ) -> None:
-        """Decides the reach of `todo`: the IK of their first seed batches here, in
+        """Decides the reach of `todo`: the IK of their first seed batches in
         passes over many of them (`GraspIk.first_batches`), "no IK" at once, the
-        others in the pool side by side as soon as their IK is known (or in this
-        process's world). The pool starts while the first pass runs."""
-        pool = self.pool  # forked now: its processes start while IK runs here
+        others in the pool side by side as soon as their IK is known (or all of it
+        in this process's world)."""
+        pool = self.pool
         by_question = {question(pair): pair for pair in todo}
         asked: list[Pair] = []
 
+        start = time.perf_counter()
+        solved = (self.world.ik if pool is None else pool).first_batches(by_question)
+
         def kinematic() -> Iterator[tuple[Pair, IkAnswers]]:
-            start = time.perf_counter()
-            ik = self.world.ik if pool is None else pool
-            for count, (q, given) in enumerate(ik.first_batches(by_question), 1):
+            for count, (q, given) in enumerate(solved, 1):
                 pair = by_question[q]
                 if given is None:
                     seconds = (time.perf_counter() - start) / count
