@@ -256,3 +256,38 @@ def test_audit_checks_that_motions_are_continuous(tmp_path: Path) -> None:
     assert (node_id, f"{arm} motion starts away from where the arm is") in messages
     del broken["nodes"][node_id]["motion"]
     assert any("actuation without a motion" in v.message for v in audit(broken))
+
+
+def test_the_collision_model_drops_bare_frames_and_checks_as_the_full_model() -> None:
+    """The checks load Baxter without the links that can neither collide nor carry
+    a joint (sensor and cable frames): every other link stands where it stood, and
+    every collision check answers as with the full model."""
+    import random
+    import re
+
+    from planner.feasibility._bullet import pb
+    from planner.feasibility.arms import ARMS
+    from planner.feasibility.robot import baxter_urdf, collision_urdf, load_robot
+
+    full_text, lean_text = baxter_urdf().read_text(), collision_urdf().read_text()
+    assert len(re.findall("<collision", lean_text)) == len(re.findall("<collision", full_text))
+    scenario = load_scenario(Path("static/scenarios/paper/paper-05.toml"))
+    lean = World(scenario)
+    client = pb.connect(pb.DIRECT)
+    full = World(scenario, robot=load_robot(client, scenario.robot.base_pose, baxter_urdf()))
+    try:
+        assert len(lean.robot.link) == len(full.robot.link) - 15
+        assert set(lean.robot.link) < set(full.robot.link)
+        rng = random.Random(5)
+        answers = []
+        for arm in ARMS:
+            lo, hi = lean.robot.lower[arm], lean.robot.upper[arm]
+            for _ in range(300):
+                q = [rng.uniform(a, b) for a, b in zip(lo, hi, strict=True)]
+                assert lean.endpoint(arm, q) == full.endpoint(arm, q)
+                answers.append(lean.is_valid(arm, q, "top"))
+                assert answers[-1] == full.is_valid(arm, q, "top")
+        assert any(answers) and not all(answers)
+    finally:
+        lean.close()
+        full.close()
