@@ -92,3 +92,20 @@ def test_a_cold_plan_is_planned_once_on_the_hoped_answers(tmp_path: Path) -> Non
     warm = plan_scenario(sc, workers=2, cache_dir=tmp_path, planner_hook=hook)
     assert planners[1].ahead is None  # every answer cached: nothing hoped
     assert cold.plan.to_json()["nodes"] == warm.plan.to_json()["nodes"]
+
+
+def test_cancelling_the_planning_on_the_hoped_answers_cancels_the_plan() -> None:
+    import pytest
+
+    from planner.planning import PlanningCancelled
+
+    sc = load_scenario(PAPER_DIR / "paper-13.toml")
+    planners: list[ConditionalPlanner] = []
+
+    def cancel(planner: ConditionalPlanner) -> None:  # as the dashboard's stop button does
+        planners.append(planner)
+        planner.cancel()
+
+    with pytest.raises(PlanningCancelled):
+        plan_scenario(sc, workers=2, cache_dir=":memory:", planner_hook=cancel)
+    assert len(planners) == 1 and planners[0].solves == 0
