@@ -207,3 +207,19 @@ def test_the_check_processes_solve_the_ik_as_this_process_does() -> None:
         pool.close()
     assert got == expected  # every answer, to the last bit
     assert sum(a is None for a in got.values()) > 0 and sum(a is not None for a in got.values()) > 0
+
+
+def test_an_ik_pass_that_fails_leaves_no_process_waiting_for_pairs() -> None:
+    from planner.feasibility.grasp_ik import Question
+
+    scenario = load_scenario(PAPER_DIR / "paper-05.toml")
+    pool = CheckPool(scenario, {"planner": "RRTConnect", "time_limit": 1.0, "seed": 0}, 2)
+    try:
+        solved = pool.first_batches([Question("left", "no-such-part")])
+        with pytest.raises(KeyError):
+            pool.decide((("left", q.part), answers) for q, answers in solved)
+        # Each process's deciding job got its end mark and ended, having decided nothing.
+        for batches in pool._batches:
+            assert [batch.decided.result(timeout=60) for batch in batches] == [[]]
+    finally:
+        pool.close()

@@ -207,10 +207,14 @@ class CheckPool:
                 self._batches[index].append(batch)
                 batch.decided.add_done_callback(partial(self._decide_done, index))
                 batches.append(batch.answers)
-        for item in pairs:
-            self._pairs.put(item)
-        for _ in self._processes:
-            self._pairs.put(None)  # one end mark per batch: each stops at one
+        try:
+            for item in pairs:
+                self._pairs.put(item)
+        finally:
+            # One end mark per batch: each stops at one, even when `pairs` failed
+            # (its IK raised), so that no process waits for pairs forever.
+            for _ in self._processes:
+                self._pairs.put(None)
         return batches
 
     def release_paths(self) -> None:
