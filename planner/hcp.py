@@ -517,7 +517,15 @@ class ConditionalPlanner:
         return remote
 
     def _start_pool(self) -> ProcessPoolExecutor:
-        """The worker processes' pool, made once."""
+        """The worker processes' pool, made once. (Its processes are forked at its first
+        submit.) Not while a thread of this process grounds: a fork copies the locks
+        clingo holds in that thread, and the children would wait for them forever.
+        Planning may start before the program `ground_ahead` grounds is ready
+        (`planner.hoped_planning`)."""
+        if self.ahead is not None:
+            wait([self.ahead])
+        if self._local is not None:
+            self._local.step.settle()
         if self._pool is None:
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers,
