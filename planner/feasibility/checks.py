@@ -6,10 +6,9 @@ loads neither the robot nor OMPL's planners. `answers` and `prefetch_moves` ask
 for many answers at once, so the pool works on them side by side; the IK of all
 the pairs `answers` asks about is solved first, in one pass per arm (`grasp_ik`;
 in the pool's processes if there is a pool), which answers those out of reach
-at once. `answers` returns as
-soon as every pair is decided: the paths (needed only for the plan's motions)
-are simplified meanwhile, and reach the cache when first asked for or when the
-checks close.
+at once. `answers` returns as soon as every pair is decided: the paths (needed
+only for the plan's motions) are simplified meanwhile, and reach the cache when
+first asked for or when the checks close.
 
 A motion goes between places: a part id (its work point, as reachability checks
 it) or a `Site` (a connection point where the state puts it: scene.py). Sites are
