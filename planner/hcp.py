@@ -522,11 +522,11 @@ class ConditionalPlanner:
         clingo holds in that thread, and the children would wait for them forever.
         Planning may start before the program `ground_ahead` grounds is ready
         (`planner.hoped_planning`)."""
-        if self.ahead is not None:
-            wait([self.ahead])
-        if self._local is not None:
-            self._local.step.settle()
         if self._pool is None:
+            if self.ahead is not None:
+                wait([self.ahead])
+            if self._local is not None:
+                self._local.step.settle()
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers,
                 mp_context=mp.get_context("fork"),
