@@ -69,13 +69,16 @@ def test_planning_on_answers_that_were_not_the_decided_ones_is_abandoned() -> No
 
 
 def test_a_cold_plan_is_planned_once_on_the_hoped_answers(tmp_path: Path) -> None:
-    """paper-13's hoped answers are the decided ones: one planner plans (no second
-    one after the answers), and its first branch counts from the answers."""
+    """paper-13's hoped answers are the decided ones: one planner plans, in the
+    thread started on the hoped answers (no second one after the answers)."""
     planners: list[ConditionalPlanner] = []
     firsts: list[dict[State, DagNode]] = []
+    planned_in: list[set[str]] = []
 
     def hook(planner: ConditionalPlanner) -> None:
         planners.append(planner)
+        planned_in.append(set())
+        planner.progress = lambda _: planned_in[-1].add(threading.current_thread().name)
         told = planner.on_first_branch
 
         def on_first(nodes: dict[State, DagNode]) -> None:
@@ -89,8 +92,10 @@ def test_a_cold_plan_is_planned_once_on_the_hoped_answers(tmp_path: Path) -> Non
     cold = plan_scenario(sc, workers=2, cache_dir=tmp_path, planner_hook=hook)
     assert len(planners) == 1 and len(firsts) == 1
     assert planners[0].ahead is not None and planners[0]._local is planners[0].ahead.result()
+    assert planned_in[0] == {"tandem-hoped-planning"}
     warm = plan_scenario(sc, workers=2, cache_dir=tmp_path, planner_hook=hook)
     assert planners[1].ahead is None  # every answer cached: nothing hoped
+    assert planned_in[1] == {threading.current_thread().name}  # planned after the answers
     assert cold.plan.to_json()["nodes"] == warm.plan.to_json()["nodes"]
 
 
