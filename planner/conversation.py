@@ -61,38 +61,32 @@ def converse(plan: Plan, said: Said | None = None) -> Plan:
         return plan
     language = _language(facts)
     verbosity = next((_arg(f) for f in facts if f.startswith("verbosity(")), "normal")
-    # Talk before node X is a chain X.0 -> X.1 -> ... -> X; parents point at X.0.
-    def entry(node_id: str) -> str:
-        return f"{node_id}.0" if node_id in said else node_id
 
-    def successors(key: str) -> list[str]:
-        node_id, _, i = key.partition(".")
-        if i:
-            nxt = int(i) + 1
-            return [f"{node_id}.{nxt}" if nxt < len(said[node_id]) else node_id]
-        return [entry(c.node) for c in plan.nodes[node_id].children]
+    def chain(node_id: str) -> int:
+        return len(said.get(node_id, ()))
 
-    root = entry(plan.root)
-    ids = {key: f"n{i}" for i, key in enumerate(walks.breadth_first(root, successors))}
+    # Talk before node X is a chain (X, 0) -> (X, 1) -> ... -> (X, n), X itself;
+    # parents point at its start. (`build_plan` puts it in the same way, as it builds a plan.)
+    order = walks.with_chains(plan.root, plan.children_of, chain)
+    ids = {key: f"n{i}" for i, key in enumerate(order)}
     nodes: dict[str, PlanNode] = {}
-    for key, new_id in ids.items():
-        node_id, _, i = key.partition(".")
+    for (node_id, i), new_id in ids.items():
         node = plan.nodes[node_id]
-        if not i:
-            kids = [Child(outcome=c.outcome, node=ids[entry(c.node)]) for c in node.children]
+        if i == chain(node_id):
+            kids = [Child(outcome=c.outcome, node=ids[(c.node, 0)]) for c in node.children]
             nodes[new_id] = node.model_copy(update={"children": kids})
             continue
-        action = said[node_id][int(i)]
+        action = said[node_id][i]
         why = phrases.why(action, frozenset(node.state), facts)
         nodes[new_id] = PlanNode(
             kind="communication",
             action=action,
             state=list(node.state),
-            children=[Child(outcome=None, node=ids[successors(key)[0]])],
+            children=[Child(outcome=None, node=ids[(node_id, i + 1)])],
             say=phrases.say(action, verbosity, why, language),
             why=why,
         )
-    out = plan.model_copy(update={"root": ids[root], "nodes": nodes})
+    out = plan.model_copy(update={"root": ids[(plan.root, 0)], "nodes": nodes})
     if plan.stats is not None:
         # The paper's columns leave the conversation out, so they stay as they were.
         out.stats = {**plan.stats, **_counts(out), "dag_nodes": len(out.nodes)}
@@ -101,8 +95,8 @@ def converse(plan: Plan, said: Said | None = None) -> Plan:
 
 def talk_about(facts: Sequence[str], root: str, nodes: Iterable[NodeView]) -> Said:
     """What is said before each node, in order, by the plan's `facts` (nothing if the
-    robot is terse). It needs the nodes alone, not the plan: planning asks for it in
-    a thread while the plan is built (clingo grounds and solves outside the GIL)."""
+    robot is terse). It needs the nodes alone, not the plan: planning asks for it
+    before the plan is built, and builds the plan with it (`plan.build_plan`)."""
     if "verbosity(terse)" in facts:
         return {}  # a terse robot says none of it
     return _solve(facts, root, nodes)

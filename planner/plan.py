@@ -13,7 +13,7 @@ violation rather than the first.
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
@@ -287,21 +287,50 @@ def build_plan(
     facts: list[str],
     timings: tuple[float, float] | None = None,
     ids: Mapping[State, str] | None = None,
+    said: Mapping[str, Sequence[Communication]] | None = None,
 ) -> Plan:
     """The plan of the builder's DAG, nodes numbered breadth-first (`ids`, if
     numbered already by `number_states`). `timings` (plan s, checks s) make it
     complete with statistics; None: a partial plan, where states still open become
-    leaves without an action."""
+    leaves without an action. `said`: what the robot says before nodes of a
+    complete plan, by their `ids` (`conversation.talk_about`), put in as
+    communication nodes just before them, as `conversation.converse` does."""
     ids = number_states(nodes, root) if ids is None else ids
     fact_set = frozenset(facts)
     verbosity = _fact_value(facts, "verbosity") or ""
     language = (_fact_value(facts, "language") or "en-us").strip('"')
+    talk = said or {}
+
+    def chain(state: State) -> int:
+        return len(talk.get(ids[state], ()))
+
+    # (state, i): the i-th sentence said before the state's node, or (i = chain) the
+    # node itself; edges go into (state, 0). The talk shifts the numbering, so the
+    # nodes are numbered again.
+    numbered: dict[tuple[State, int], str]
+    if talk:
+        order = walks.with_chains(root, lambda s: [c for _, c in nodes[s].children], chain)
+        numbered = {key: f"n{i}" for i, key in enumerate(order)}
+    else:
+        numbered = {(state, 0): node_id for state, node_id in ids.items()}
     out: dict[str, PlanNode] = {}
-    for state, node_id in ids.items():
+    for (state, i), node_id in numbered.items():
         node = nodes.get(state)
         if node is None or (node.action is None and not node.goal):
             # Still open while planning goes on: a leaf for now.
             out[node_id] = PlanNode(kind="open", action=None, state=sorted(state), children=[])
+            continue
+        if i < chain(state):
+            sentence = talk[ids[state]][i]
+            reason = phrases.why(sentence, state, fact_set)
+            out[node_id] = PlanNode(
+                kind="communication",
+                action=sentence,
+                state=sorted(state),
+                children=[Child(outcome=None, node=numbered[(state, i + 1)])],
+                say=phrases.say(sentence, verbosity, reason, language),
+                why=reason,
+            )
             continue
         kind, action = kind_and_action(node)
         say = why = None
@@ -317,7 +346,9 @@ def build_plan(
             # While planning goes on, a child added after the numbering waits for
             # the next snapshot.
             children=[
-                Child(outcome=label, node=ids[succ]) for label, succ in node.children if succ in ids
+                Child(outcome=label, node=numbered[(succ, 0)])
+                for label, succ in node.children
+                if (succ, 0) in numbered
             ],
             expected=node.expected,
             say=say,
@@ -326,7 +357,7 @@ def build_plan(
     plan = Plan(
         scenario=ScenarioRef(name=scenario_name, sha256=scenario_sha256),
         facts=sorted(facts),
-        root=ids[root],
+        root=numbered[(root, 0)],
         nodes=out,
     )
     if timings is not None:

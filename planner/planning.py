@@ -8,7 +8,7 @@ import os
 import threading
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import Future, ThreadPoolExecutor, wait
+from concurrent.futures import Future, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -362,22 +362,20 @@ def _plan(
             raise diagnosis.explain(err, scenario, reachable) from err
         if planner.cancelled:
             raise PlanningCancelled(f"cancelled after {planner.solves} solves")
-        # What the robot says is found from the DAG in a thread while the plan is
-        # built: clingo grounds and solves it outside the GIL (U18: 1.1 s of its 3.5 s).
+        # What the robot says is found from the DAG, and the plan is built once, with
+        # it (U18: building it without and then putting it in took 2 s more).
         ids = number_states(planner.nodes, root)
         views = [_view(node_id, planner.nodes[state]) for state, node_id in ids.items()]
-        with ThreadPoolExecutor(1, thread_name_prefix="tandem-talk") as talking:
-            said = talking.submit(conversation.talk_about, sorted(facts), ids[root], views)
-            plan = build_plan(
-                planner.nodes,
-                root,
-                scenario_name=scenario.name,
-                scenario_sha256=scenario.sha256,
-                facts=facts,
-                timings=(time.perf_counter() - t0, checks_s),
-                ids=ids,
-            )
-            plan = conversation.converse(plan, said.result())
+        plan = build_plan(
+            planner.nodes,
+            root,
+            scenario_name=scenario.name,
+            scenario_sha256=scenario.sha256,
+            facts=facts,
+            timings=(time.perf_counter() - t0, checks_s),
+            ids=ids,
+            said=conversation.talk_about(sorted(facts), ids[root], views),
+        )
         plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
         if checks is not None:
             # Paths only for the actions the plan uses, once it is built: the solver

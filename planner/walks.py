@@ -48,6 +48,23 @@ def postorder(root: K, children: Children[K]) -> list[K]:
     return order
 
 
+def with_chains(root: K, children: Children[K], chain: Callable[[K], int]) -> list[tuple[K, int]]:
+    """Breadth-first order of the DAG with a chain of `chain(node)` nodes put before
+    each node: (node, i) for i < chain(node) is the chain's i-th, (node, chain(node))
+    the node itself. An edge into a node enters its chain, which ends at the node."""
+
+    def entry(node: K) -> tuple[K, int]:
+        return node, 0
+
+    def successors(key: tuple[K, int]) -> list[tuple[K, int]]:
+        node, i = key
+        if i < chain(node):
+            return [(node, i + 1)]
+        return [entry(c) for c in children(node)]
+
+    return breadth_first(entry(root), successors)
+
+
 def find_back_edge(root: K, children: Children[K]) -> tuple[K, K] | None:
     """An edge (node, child) that closes a loop: the child is on a path from `root`
     to the node (depth first, children in order), or None."""

@@ -89,6 +89,14 @@ def test_find_back_edge_names_the_edge_that_closes_a_loop() -> None:
     assert walks.find_back_edge("a", dag.__getitem__) is None
 
 
+def test_chains_go_before_their_nodes_in_breadth_first_order() -> None:
+    dag = {"a": ["b", "c"], "b": ["d"], "c": ["d"], "d": []}
+    chains = {"a": 1, "c": 2, "d": 1}
+    order = walks.with_chains("a", dag.__getitem__, lambda n: chains.get(n, 0))
+    # (n, i < chains[n]) is the i-th before n; (n, chains[n]) is n; edges enter at (n, 0).
+    assert order == [("a", 0), ("a", 1), ("b", 0), ("c", 0), ("d", 0), ("c", 1), ("d", 1), ("c", 2)]
+
+
 def test_a_loop_is_planned_again_without_the_action_that_closes_it() -> None:
     """With initiative the human may pick up a dangerous spare part in their reach.
     The branches that dodge it lead back to states before them; each is planned
