@@ -198,3 +198,30 @@ def test_the_talk_found_from_the_search_is_the_talk_of_the_built_plan() -> None:
         )
     said = [n.action.name for n in new.nodes.values() if n.action and n.action.name in CONVERSATION]
     assert {"greet", "farewell", "warnDanger", "explainAsk"} <= set(said)
+
+
+def test_a_plan_built_with_its_talk_counts_it_as_the_audit_does() -> None:
+    """`build_plan` puts the talk in as it builds; the statistics count it as the
+    audit's own count does, also before a goal at the root."""
+    from planner.audit import tree_stats as audited_stats
+    from planner.hcp import DagNode
+    from planner.plan import build_plan
+    from planner.vocabulary import Farewell, Greet, State
+
+    chatty = planned(CHATTY, NAIL, NO_INITIATIVE)
+    done: State = frozenset({"humanFree"})  # a bench already assembled: a goal at the root
+    at_goal = build_plan(
+        {done: DagNode(done, goal=True)},
+        done,
+        scenario_name="done",
+        scenario_sha256="0" * 64,
+        facts=["verbosity(normal)"],
+        timings=(0.0, 0.0),
+        said={"n0": [Greet(), Farewell()]},
+    )
+    assert [n.kind for n in at_goal.nodes.values()] == ["communication", "communication", "goal"]
+    for plan in (chatty, at_goal):
+        counted = {k: v for k, v in plan.statistics.items() if k not in ("plan_s", "checks_s")}
+        assert counted == tree_stats(plan)
+        assert counted == audited_stats(plan.to_json())
+    assert at_goal.statistics["GE"] == 2 and at_goal.statistics["BF"] == 1
