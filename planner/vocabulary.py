@@ -15,7 +15,7 @@ from __future__ import annotations
 import functools
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import ClassVar, TypeVar
 
 # ---------------------------------------------------------------- terms
@@ -99,10 +99,13 @@ class _Word:
     """A predicate with constant arguments; its fields are the arguments in order."""
 
     name: ClassVar[str]
+    # The fields' names in order (made by `dataclass`): `fields()` builds its answer
+    # anew on every call, and words are written out tens of thousands of times a plan.
+    __match_args__: ClassVar[tuple[str, ...]]
 
     @property
     def arguments(self) -> tuple[str, ...]:
-        return tuple(getattr(self, f.name) for f in fields(self))
+        return tuple(getattr(self, name) for name in self.__match_args__)
 
     def __str__(self) -> str:
         args = self.arguments
@@ -115,7 +118,7 @@ W = TypeVar("W", bound=_Word)
 def _from_term(registry: dict[str, type[W]], term: Term, what: str) -> W:
     cls = registry.get(term.name)
     args = constants(term)
-    if cls is None or args is None or len(args) != len(fields(cls)):
+    if cls is None or args is None or len(args) != len(cls.__match_args__):
         raise TermError(f"not a {what}: {term}")
     return cls(*args)
 
