@@ -4,8 +4,9 @@ These communication actions are deterministic and change nothing in the world,
 so they never change which task plan is best: they are planned once the task
 plan is built, by one clingo solve of `planner/asp/conversation.lp` over all of
 the plan's nodes, and put in as communication nodes just before the node that
-needs them (in the same state: talk moves no part). The search, and the
-paper's columns of the statistics, stay what they were.
+needs them (in the same state: talk moves no part) as the plan is built
+(`plan.build_plan`). The search, and the paper's columns of the statistics,
+stay what they were.
 """
 
 from __future__ import annotations
@@ -14,13 +15,8 @@ from collections.abc import Iterable, Sequence
 
 import clingo
 
-from planner import phrases, walks
-from planner.plan import CONVERSATION_STAT_KEYS, Child, Plan, PlanNode
 from planner.resources import encoding_dir
 from planner.vocabulary import (
-    EXPLANATIONS,
-    GREETINGS,
-    WARNINGS,
     Action,
     AskHelp,
     Attach,
@@ -28,7 +24,6 @@ from planner.vocabulary import (
     Hold,
     RequestToAttach,
     parse_action,
-    parse_term,
 )
 
 PROGRAM = "conversation.lp"
@@ -42,55 +37,11 @@ _READ: dict[str, tuple[tuple[str, ...], bool]] = {
     AskHelp.name: (_HANDS, True),
     RequestToAttach.name: (_HANDS, True),
 }
-_COUNTED = {"GE": GREETINGS, "W": WARNINGS, "X": EXPLANATIONS}
 
 
 Said = dict[str, list[Communication]]  # by node id: what is said before it, in order
 # What the conversation reads of a node: its id, kind, action and state.
 NodeView = tuple[str, str | None, Action | None, Iterable[str]]
-
-
-def converse(plan: Plan, said: Said | None = None) -> Plan:
-    """`plan` with what the robot says around its actions, by the plan's verbosity;
-    `said`: what `talk_about` found for its nodes, if asked before."""
-    facts = frozenset(plan.facts)
-    if said is None:
-        views = ((i, n.kind, n.action, n.state) for i, n in plan.nodes.items())
-        said = talk_about(plan.facts, plan.root, views)
-    if not said:
-        return plan
-    language = _language(facts)
-    verbosity = next((_arg(f) for f in facts if f.startswith("verbosity(")), "normal")
-
-    def chain(node_id: str) -> int:
-        return len(said.get(node_id, ()))
-
-    # Talk before node X is a chain (X, 0) -> (X, 1) -> ... -> (X, n), X itself;
-    # parents point at its start. (`build_plan` puts it in the same way, as it builds a plan.)
-    order = walks.with_chains(plan.root, plan.children_of, chain)
-    ids = {key: f"n{i}" for i, key in enumerate(order)}
-    nodes: dict[str, PlanNode] = {}
-    for (node_id, i), new_id in ids.items():
-        node = plan.nodes[node_id]
-        if i == chain(node_id):
-            kids = [Child(outcome=c.outcome, node=ids[(c.node, 0)]) for c in node.children]
-            nodes[new_id] = node.model_copy(update={"children": kids})
-            continue
-        action = said[node_id][i]
-        why = phrases.why(action, frozenset(node.state), facts)
-        nodes[new_id] = PlanNode(
-            kind="communication",
-            action=action,
-            state=list(node.state),
-            children=[Child(outcome=None, node=ids[(node_id, i + 1)])],
-            say=phrases.say(action, verbosity, why, language),
-            why=why,
-        )
-    out = plan.model_copy(update={"root": ids[(plan.root, 0)], "nodes": nodes})
-    if plan.stats is not None:
-        # The paper's columns leave the conversation out, so they stay as they were.
-        out.stats = {**plan.stats, **_counts(out), "dag_nodes": len(out.nodes)}
-    return out
 
 
 def talk_about(facts: Sequence[str], root: str, nodes: Iterable[NodeView]) -> Said:
@@ -191,22 +142,3 @@ def _assembly_facts(assemblies: dict[frozenset[str], int]) -> list[str]:
             facts.append(f"extends({number},{parent[0]},{parent[1]})")
         known[attached] = number
     return facts
-
-
-def _counts(plan: Plan) -> dict[str, int]:
-    """GE, W and X of the unfolded tree: each node once per path from the root."""
-    out = dict.fromkeys(CONVERSATION_STAT_KEYS, 0)
-    for node_id, n in plan.root_paths().items():
-        action = plan.nodes[node_id].action
-        name = action.name if action is not None else ""
-        for key, names in _COUNTED.items():
-            out[key] += n if name in names else 0
-    return out
-
-
-def _arg(fact: str) -> str:
-    return str(parse_term(fact).args[0])
-
-
-def _language(facts: frozenset[str]) -> str:
-    return next((_arg(f).strip('"') for f in facts if f.startswith("language(")), "en-us")

@@ -294,7 +294,7 @@ def build_plan(
     complete with statistics; None: a partial plan, where states still open become
     leaves without an action. `said`: what the robot says before nodes of a
     complete plan, by their `ids` (`conversation.talk_about`), put in as
-    communication nodes just before them, as `conversation.converse` does."""
+    communication nodes just before them."""
     ids = number_states(nodes, root) if ids is None else ids
     fact_set = frozenset(facts)
     verbosity = _fact_value(facts, "verbosity") or ""

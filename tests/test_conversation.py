@@ -171,9 +171,9 @@ def test_a_plan_from_a_later_state_does_not_greet_again() -> None:
 
 
 def test_the_talk_found_from_the_search_is_the_talk_of_the_built_plan() -> None:
-    """Planning finds the conversation from the search's DAG while the plan is built
-    (`conversation.talk_about`); it is what the built plan's nodes give."""
-    from planner.conversation import converse
+    """Planning finds the conversation from the search's DAG before the plan is
+    built (`conversation.talk_about`); it is what the built plan's nodes give."""
+    from planner.conversation import talk_about
     from planner.hcp import ConditionalPlanner
     from planner.plan import build_plan
 
@@ -181,15 +181,21 @@ def test_the_talk_found_from_the_search_is_the_talk_of_the_built_plan() -> None:
     sc = scenario(CHATTY, NAIL, NO_INITIATIVE)
     new = plan_scenario(sc, workers=1, planner_hook=planners.append).plan
     search = planners[0]
-    built = build_plan(
-        search.nodes,
-        search.root,
-        scenario_name=sc.name,
-        scenario_sha256=sc.sha256,
-        facts=new.facts,
-        timings=(0.0, 0.0),
-    )
-    old = converse(built)  # found from the plan's nodes
+
+    def built(said: dict[str, list[Communication]] | None = None) -> Plan:
+        return build_plan(
+            search.nodes,
+            search.root,
+            scenario_name=sc.name,
+            scenario_sha256=sc.sha256,
+            facts=new.facts,
+            timings=(0.0, 0.0),
+            said=said,
+        )
+
+    task = built()  # the task alone
+    views = ((i, n.kind, n.action, n.state) for i, n in task.nodes.items())
+    old = built(talk_about(task.facts, task.root, views))  # found from the plan's nodes
     assert new.root == old.root and new.nodes.keys() == old.nodes.keys()
     fields = ("kind", "action", "state", "children", "say", "why")
     for node_id, node in new.nodes.items():
