@@ -13,6 +13,7 @@ import json
 import os
 import sqlite3
 import threading
+import time
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -30,6 +31,8 @@ from planner.scenario_model import Scenario
 # same (612 pairs and points), but the grasp configurations and paths differ.
 MODEL_VERSION = 7
 FILE_NAME = "feasibility.sqlite"
+# How long an opening or a write waits for another planner's lock on the file.
+LOCK_WAIT_S = 30.0
 
 
 def default_dir() -> Path:
@@ -53,6 +56,25 @@ def geometry_key(scenario: Scenario, **parameters: Any) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def _use_wal(db: sqlite3.Connection) -> None:
+    """Several planners may share the file: WAL lets readers run beside a writer.
+
+    The switch is kept in the file, so only the first opening of a new file makes
+    it; SQLite answers "database is locked" at once, without its busy wait, to an
+    opening that asks while another is switching (a sweep's processes start
+    together), so the switch is asked again until it is made or `LOCK_WAIT_S` ends.
+    """
+    deadline = time.monotonic() + LOCK_WAIT_S
+    while True:
+        try:
+            db.execute("PRAGMA journal_mode=WAL")
+            return
+        except sqlite3.OperationalError as err:
+            if "locked" not in str(err) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.005)
+
+
 class CheckCache:
     """Key -> JSON value; `directory=None` uses `default_dir()`, ":memory:" keeps nothing."""
 
@@ -65,9 +87,10 @@ class CheckCache:
         else:
             folder = Path(directory) if directory is not None else default_dir()
             folder.mkdir(parents=True, exist_ok=True)
-            # Several planners may share the file: WAL lets readers run beside a writer.
-            self._db = sqlite3.connect(folder / FILE_NAME, timeout=30.0, check_same_thread=False)
-            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db = sqlite3.connect(
+                folder / FILE_NAME, timeout=LOCK_WAIT_S, check_same_thread=False
+            )
+            _use_wal(self._db)
             # A commit need not wait for the disk (a cache: an answer lost with the
             # power is checked again; WAL keeps the file whole either way): the
             # planning process writes every answer as it comes (1.1 ms a commit).
