@@ -22,7 +22,7 @@ def plot_sweep(rows: Sequence[dict[str, Any]], variations: Sequence[Variation], 
 
     names = [v.name for v in variations]
     fig, axes = plt.subplots(
-        len(variations), 2, figsize=(10, 3.2 * len(variations)), squeeze=False
+        len(variations), 2, figsize=(13, 3.2 * len(variations)), squeeze=False
     )
     for row_axes, variation in zip(axes, variations, strict=True):
         others = [n for n in names if n != variation.name]
@@ -40,7 +40,8 @@ def plot_sweep(rows: Sequence[dict[str, Any]], variations: Sequence[Variation], 
             ax.set_xlabel(variation.name)
             ax.set_ylabel(title)
             ax.grid(alpha=0.3)
-        row_axes[1].legend(fontsize=7, loc="best")
+        # Beside the panels, not on them: with a dozen lines no corner is empty.
+        row_axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     fig.tight_layout()
     fig.savefig(out, dpi=100)
     plt.close(fig)
