@@ -40,15 +40,31 @@ def _ray() -> Any:
     return ray
 
 
+def check_address(address: str) -> None:
+    """Refuses what cannot be a Ray address, before anything waits for it."""
+    if address != "auto" and not address.startswith("ray://"):
+        raise ClusterUnavailable(f"--cluster {address!r}: expected auto or ray://HOST:PORT")
+
+
+# The address `connect` last joined in this process; None if Ray was started by
+# its caller (a test, a notebook), whose cluster is then used as it is.
+_joined: str | None = None
+
+
 def connect(address: str, *, num_cpus: int | None = None) -> None:
     """Joins (or, for "auto" with no cluster running, starts) the Ray cluster at `address`.
 
-    `num_cpus` bounds a cluster started here (tests start a small one)."""
+    A process that joined another address leaves it first (the dashboard's
+    setting may change between plans). `num_cpus` bounds a cluster started here
+    (tests start a small one)."""
+    global _joined
     ray = _ray()
+    check_address(address)
     if ray.is_initialized():
-        return
-    if address != "auto" and not address.startswith("ray://"):
-        raise ClusterUnavailable(f"--cluster {address!r}: expected auto or ray://HOST:PORT")
+        if _joined in (None, address):
+            return
+        ray.shutdown()
+        _joined = None
     try:
         if address == "auto":
             try:
@@ -60,6 +76,7 @@ def connect(address: str, *, num_cpus: int | None = None) -> None:
             ray.init(address=address, log_to_driver=False)
     except Exception as err:  # Ray raises many types; each one means "no cluster"
         raise ClusterUnavailable(f"cannot reach the Ray cluster at {address}: {err}") from err
+    _joined = address
 
 
 def cluster_cpus() -> int:

@@ -11,6 +11,7 @@ from pathlib import Path
 from types import FrameType
 
 from app.cli.exit_codes import BadInput
+from planner.cluster import check_address
 
 REMOTE_WARNING = (
     "warning: the dashboard listens on {host}, beyond this machine. viser cannot refuse "
@@ -41,6 +42,12 @@ def register(parser: argparse.ArgumentParser) -> None:
         help="a folder the page may open scenarios from (repeatable; read-only)",
     )
     parser.add_argument("--workers", type=int, default=0, help="planner processes (0: all cores)")
+    parser.add_argument(
+        "--cluster",
+        metavar="auto|ray://HOST:PORT",
+        help="solve branches on Ray actors by default (the page's \"Solve on\" can change it; "
+        "needs tandem[cluster])",
+    )
     parser.add_argument(
         "--data-dir",
         help="where sessions and saved scenarios are stored "
@@ -94,6 +101,8 @@ def run(args: argparse.Namespace) -> int:
                 "add --allow-remote if you mean it (README, Security)"
             )
         print(REMOTE_WARNING.format(host=args.host, port=args.port), file=sys.stderr, flush=True)
+    if args.cluster is not None:
+        check_address(args.cluster)  # ClusterUnavailable: exit 2, one line
     for folder in args.scenario_dir:
         if not Path(folder).is_dir():
             raise BadInput(f"--scenario-dir {folder}: not a folder")
@@ -103,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
             args.port,
             args.scenario,
             workers=args.workers,
+            cluster=args.cluster,
             data_dir=args.data_dir,
             scenario_dirs=args.scenario_dir,
             speak=args.speak,

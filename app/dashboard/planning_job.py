@@ -8,6 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
+from planner.cluster import ClusterUnavailable
 from planner.hcp import ConditionalPlanner, DeadEnd, Progress
 from planner.plan import Plan, build_plan
 from planner.planning import PlanningCancelled, plan_scenario
@@ -40,10 +41,12 @@ class PlanningJob:
         *,
         workers: int = 0,
         cache_dir: str | None = None,
+        cluster: str | None = None,
     ) -> None:
         self.scenario = scenario
         self.on_change = on_change
         self.workers = workers
+        self.cluster = cluster  # a Ray address ("auto", "ray://HOST:PORT"); None: here
         self.cache_dir = cache_dir
         self.status = JobStatus("idle")
         self.plan: Plan | None = None
@@ -53,7 +56,8 @@ class PlanningJob:
 
     def start(self) -> None:
         self._t0 = time.perf_counter()
-        self._set(JobStatus("planning", message="checking geometry"))
+        where = f"; joining the Ray cluster at {self.cluster}" if self.cluster else ""
+        self._set(JobStatus("planning", message=f"checking geometry{where}"))
         self._thread.start()
 
     def cancel(self) -> None:
@@ -86,12 +90,16 @@ class PlanningJob:
                 progress=self._progress,
                 planner_hook=self._hook,
                 cache_dir=self.cache_dir,
+                cluster=self.cluster,
             )
         except PlanningCancelled as err:
             self._set(JobStatus("cancelled", message=f"cancelled: {err}"))
             return
         except DeadEnd as err:
             self._set(JobStatus("failed", message=f"no plan: {err}"))
+            return
+        except ClusterUnavailable as err:
+            self._set(JobStatus("failed", message=f"no cluster: {err}"))
             return
         except Exception as err:  # the dashboard must survive any planning failure
             self._set(JobStatus("failed", message=f"{type(err).__name__}: {err}"))

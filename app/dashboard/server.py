@@ -45,6 +45,9 @@ from app.store import SessionStore, default_data_dir
 from planner.plan import Plan, PlanNode
 from planner.scenario_model import Scenario
 
+# The choices of "Solve on".
+HERE = "this machine"
+RAY = "a Ray cluster"
 LIVE_REDRAW_S = 0.5  # at most two redraws of the growing tree per second
 CAMERAS = {
     "Bench": ((2.6, -1.5, 0.9), (0.7, 0.0, -0.2)),
@@ -62,6 +65,7 @@ class Dashboard:
         scenario_path: str = "default.toml",
         *,
         workers: int = 0,
+        cluster: str | None = None,
         cache_dir: str | None = None,
         data_dir: str | None = None,
         scenario_dirs: Sequence[str | Path] = (),
@@ -80,6 +84,7 @@ class Dashboard:
         self.server.scene.configure_default_lights(cast_shadow=False)
         self.server.gui.configure_theme(control_width="large", show_logo=False)
         self.workers = workers
+        self._cluster_default = cluster
         self.cache_dir = cache_dir
         self.loaded: scenario_edit.Loaded | None = None
         self.executing = False
@@ -144,6 +149,23 @@ class Dashboard:
             self.save_button = gui.add_button("Save")
             self.save_button.on_click(lambda _: self._save())
         with gui.add_folder("Plan"):
+            # Where branches are solved: this machine's processes, or Ray actors
+            # (`tandem plan --cluster`); the address is kept while "this machine".
+            self.solve_on: Any = gui.add_dropdown(
+                "Solve on",
+                [HERE, RAY],
+                initial_value=RAY if self._cluster_default else HERE,
+                hint="Ray needs tandem[cluster]; auto joins this machine's cluster or starts one",
+            )
+            self.ray_address: Any = gui.add_text(
+                "Ray address",
+                self._cluster_default or "auto",
+                disabled=not self._cluster_default,
+                hint="auto, or ray://HOST:PORT of a cluster's head",
+            )
+            self.solve_on.on_update(
+                lambda _: setattr(self.ray_address, "disabled", self.solve_on.value != RAY)
+            )
             self.plan_button = gui.add_button("Plan", color="green")
             self.plan_button.on_click(lambda _: self.start_planning())
             self.cancel_button = gui.add_button("Cancel", disabled=True)
@@ -167,7 +189,7 @@ class Dashboard:
         parts = [handle for pair in self._part_inputs.values() for handle in pair]
         return [
             self.pick, self.path_text, self.open_button, self.safety, self.verbosity,
-            self.save_name, self.save_button, self.plan_button, *parts,
+            self.save_name, self.save_button, self.solve_on, self.plan_button, *parts,
         ]  # fmt: skip
 
     def _lock_scenario(self, locked: bool) -> None:
@@ -299,9 +321,20 @@ class Dashboard:
         self.plan = None
         self.events.publish(PlanChanged(None))
         self.job = PlanningJob(
-            self.loaded.scenario, self._job_changed, workers=self.workers, cache_dir=self.cache_dir
+            self.loaded.scenario,
+            self._job_changed,
+            workers=self.workers,
+            cache_dir=self.cache_dir,
+            cluster=self.cluster,
         )
         self.job.start()
+
+    @property
+    def cluster(self) -> str | None:
+        """The Ray address the next plan is solved on; None: on this machine."""
+        if self.solve_on.value != RAY:
+            return None
+        return str(self.ray_address.value).strip() or "auto"
 
     def _job_changed(self, status: JobStatus) -> None:
         job = self.job
