@@ -113,3 +113,57 @@ def test_scenario_edits_validate_and_save(tmp_path: Path) -> None:
     assert scenario_edit.load_named(folders, "mine.toml").scenario is not None
     assert scenario_edit.load_file(tmp_path / "missing.toml").error
     assert folders.names()[0] == "default.toml" and "mine.toml" in folders.names()
+
+
+def test_the_scenario_choice_names_what_is_loaded(tmp_path: Path) -> None:
+    from app.dashboard.server import OTHER_FILE, Dashboard
+    from app.dashboard.stage import ScenarioChanged
+    from tests.plan_fixtures import free_port
+
+    mine = tmp_path / "scenarios"
+    mine.mkdir()
+    # A file of the user's folder shadows the shipped file of the same name.
+    (mine / "declared.toml").write_text((ROOT / "static/scenarios/declared.toml").read_text())
+    outside = tmp_path / "elsewhere" / "bench.toml"
+    outside.parent.mkdir()
+    outside.write_text(DEFAULT.read_text())
+    shipped_declared = ROOT / "static" / "scenarios" / "declared.toml"
+    dashboard = Dashboard(
+        "127.0.0.1", free_port(), str(shipped_declared), data_dir=str(tmp_path),
+        load_models=False,
+    )  # fmt: skip
+    try:
+        # The command line's shipped file is shadowed: no choice names it.
+        assert dashboard.pick.value == OTHER_FILE
+        assert dashboard.pick.options[0] == OTHER_FILE
+        dashboard.open_named("paper/paper-03.toml")
+        assert dashboard.pick.value == "paper/paper-03.toml"
+        assert OTHER_FILE not in dashboard.pick.options
+        assert dashboard.loaded is not None and dashboard.loaded.source == "paper/paper-03.toml"
+        # A choice in the page opens that scenario once.
+        loads: list[str] = []
+        dashboard.events.subscribe(ScenarioChanged, lambda e: loads.append(e.scenario.name))
+        dashboard.pick.value = "declared.toml"
+        assert loads == ["paper-base-declared"]
+        assert dashboard.loaded.source == "declared.toml"
+        # A file that does not load leaves the choice on the scenario that stays.
+        (mine / "broken.toml").write_text('name = "broken"\n')
+        dashboard.pick.options = dashboard.folders.names()
+        dashboard.pick.value = "broken.toml"
+        assert dashboard.error.content.startswith("**Error:** broken.toml")
+        assert dashboard.pick.value == "declared.toml" and loads == ["paper-base-declared"]
+        assert dashboard.folders.name_of(mine / "declared.toml") == "declared.toml"
+        assert dashboard.folders.name_of(shipped_declared) is None
+        assert dashboard.folders.name_of(outside) is None
+        dashboard.open_scenario(ROOT / "static" / "scenarios" / "paper" / "paper-05.toml")
+        assert dashboard.pick.value == "paper/paper-05.toml"
+        dashboard.open_scenario(outside)  # in no scenario folder
+        assert dashboard.pick.value == OTHER_FILE
+        assert dashboard.loaded.source == str(outside)
+        # Saving it offers it by its new name, and still shows it as the other file.
+        dashboard.save_name.value = "saved.toml"
+        dashboard._save()
+        assert "saved.toml" in dashboard.pick.options and dashboard.pick.value == OTHER_FILE
+        assert dashboard.loaded.source == str(outside)
+    finally:
+        dashboard.close()

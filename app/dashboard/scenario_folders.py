@@ -78,6 +78,22 @@ class ScenarioFolders:
             return candidate
         raise RefusedName(f"{name}: no such scenario in the scenario folders")
 
+    def name_of(self, path: Path) -> str | None:
+        """The name the page offers for the file at `path`; None if no folder gives
+        that name to it (outside the folders, or behind the same name in a folder
+        searched before)."""
+        resolved = path.resolve()
+        for folder in self.folders:
+            root = folder.path.resolve()
+            if not resolved.is_relative_to(root):
+                continue
+            name = resolved.relative_to(root).as_posix()
+            try:
+                return name if self.find(name).resolve() == resolved else None
+            except RefusedName:
+                return None
+        return None
+
     def save_path(self, name: str) -> Path:
         """Where "Save as" `name` writes (a new file in the user's folder); raises `RefusedName`."""
         plain = name.strip()

@@ -45,6 +45,9 @@ from app.store import SessionStore, default_data_dir
 from planner.plan import Plan, PlanNode
 from planner.scenario_model import Scenario
 
+# The "Scenario" choice while a file that no choice names is loaded (a path given
+# on the command line outside the scenario folders, or shadowed by a user's file).
+OTHER_FILE = "(another file)"
 # The choices of "Solve on".
 HERE = "this machine"
 RAY = "a Ray cluster"
@@ -131,8 +134,8 @@ class Dashboard:
         gui.add_markdown("**Tandem**: plans for a robot and a human building a table")
         with gui.add_folder("Scenario"):
             names = self.folders.names()
-            self.pick = gui.add_dropdown("Scenario", names, initial_value=names[0])
-            self.pick.on_update(lambda _: self.open_named(self.pick.value))
+            self.pick: Any = gui.add_dropdown("Scenario", names, initial_value=names[0])
+            self.pick.on_update(lambda _: self._picked())
             self.path_text = gui.add_text("File", "")
             self.open_button = gui.add_button("Open file")
             self.open_button.on_click(lambda _: self.open_named(self.path_text.value))
@@ -234,15 +237,42 @@ class Dashboard:
             return  # the controls are disabled; a late event changes nothing
         self.show_loaded(scenario_edit.load_named(self.folders, name))
 
+    def _offer_scenarios(self) -> None:
+        """The scenario folders' names as choices, the loaded one chosen; value before
+        options, so no change of either loads a scenario again (`_picked`)."""
+        names = self.folders.names()
+        name = None if self.loaded is None else self._shown_name(self.loaded)
+        if name is None or name not in names:
+            self.pick.options = [OTHER_FILE, *names]
+            self.pick.value = OTHER_FILE
+        else:
+            self.pick.value = name
+            self.pick.options = names
+
+    def _picked(self) -> None:
+        if self.pick.value == OTHER_FILE:
+            return
+        if self.loaded is None or self.pick.value != self._shown_name(self.loaded):
+            self.open_named(self.pick.value)
+
+    def _shown_name(self, loaded: scenario_edit.Loaded) -> str | None:
+        """The "Scenario" choice that names `loaded`, if one does."""
+        if loaded.source in self.folders.names():
+            return loaded.source  # asked for by that name
+        return self.folders.name_of(Path(loaded.source))  # the command line's file
+
     def show_loaded(self, loaded: scenario_edit.Loaded) -> None:
         if loaded.scenario is None:
             self.error.content = f"**Error:** {loaded.error}"
+            if self.loaded is not None:
+                self._offer_scenarios()  # the choice goes back to what stays loaded
             return  # the previous scenario stays on screen, and usable
         self.error.content = ""
         self.loaded = loaded
         scenario = loaded.scenario
         self.bench.load(scenario)
         with self.server.atomic():
+            self._offer_scenarios()
             self.safety.value = scenario.preferences.safety
             self.verbosity.value = scenario.preferences.verbosity
         self._rebuild_part_inputs()
@@ -304,7 +334,7 @@ class Dashboard:
         except OSError as err:
             self.error.content = f"**Error:** cannot save in your scenario folder: {err.strerror}"
             return
-        self.pick.options = self.folders.names()
+        self._offer_scenarios()
         self.error.content = f"Saved as `{out.name}` in your scenario folder."
 
     # -- planning -----------------------------------------------------------------
