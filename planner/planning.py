@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from planner import conversation, diagnosis
+from planner.cluster import check_address
 from planner.hcp import (
     INLINE_SOLVE_S,
     BranchPlanner,
@@ -248,6 +249,8 @@ def plan_scenario(
     open); `symmetry` whether states that differ
     by a renaming of interchangeable parts are solved once (`planner.symmetry`).
     """
+    if cluster is not None:
+        check_address(cluster)  # before the checks: a typo is known at once
     checkers = workers if check_workers is None else check_workers
     with (
         cycle_collection_paused(),

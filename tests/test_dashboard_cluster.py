@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import subprocess
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -87,7 +86,7 @@ def test_a_bad_address_fails_the_plan_in_one_line(page: Page, dashboard: Dashboa
     assert not dashboard.plan_button.disabled  # the page can plan again
 
 
-def test_the_command_refuses_a_bad_address_before_it_starts(tmp_path: Path) -> None:
+def test_the_command_refuses_a_bad_address_before_it_starts() -> None:
     done = subprocess.run(
         [*tandem_command(), "dashboard", "--cluster", "head:10001", "--port", str(free_port())],
         cwd=ROOT, capture_output=True, text=True, timeout=60,

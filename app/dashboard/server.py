@@ -90,6 +90,7 @@ class Dashboard:
         self._cluster_default = cluster
         self.cache_dir = cache_dir
         self.loaded: scenario_edit.Loaded | None = None
+        self._offered: str | None = None  # the "Scenario" choice naming what is loaded
         self.executing = False
         self.job: PlanningJob | None = None
         self.plan: Plan | None = None
@@ -238,28 +239,26 @@ class Dashboard:
         self.show_loaded(scenario_edit.load_named(self.folders, name))
 
     def _offer_scenarios(self) -> None:
-        """The scenario folders' names as choices, the loaded one chosen; value before
-        options, so no change of either loads a scenario again (`_picked`)."""
+        """The scenario folders' names as choices, the loaded one chosen (`OTHER_FILE`
+        where no name stands for it). The value is set before the options, so that
+        neither change reads as a choice (`_picked`)."""
         names = self.folders.names()
-        name = None if self.loaded is None else self._shown_name(self.loaded)
-        if name is None or name not in names:
+        name = None
+        if self.loaded is not None:
+            source = self.loaded.source  # a name the page asked for, or a file's path
+            name = source if source in names else self.folders.name_of(Path(source))
+        self._offered = name if name in names else OTHER_FILE
+        if self._offered == OTHER_FILE:
             self.pick.options = [OTHER_FILE, *names]
             self.pick.value = OTHER_FILE
         else:
-            self.pick.value = name
+            self.pick.value = self._offered
             self.pick.options = names
 
     def _picked(self) -> None:
-        if self.pick.value == OTHER_FILE:
-            return
-        if self.loaded is None or self.pick.value != self._shown_name(self.loaded):
+        # The choice set by _offer_scenarios is what is loaded already.
+        if self.pick.value != self._offered:
             self.open_named(self.pick.value)
-
-    def _shown_name(self, loaded: scenario_edit.Loaded) -> str | None:
-        """The "Scenario" choice that names `loaded`, if one does."""
-        if loaded.source in self.folders.names():
-            return loaded.source  # asked for by that name
-        return self.folders.name_of(Path(loaded.source))  # the command line's file
 
     def show_loaded(self, loaded: scenario_edit.Loaded) -> None:
         if loaded.scenario is None:
