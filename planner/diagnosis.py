@@ -12,8 +12,8 @@ from __future__ import annotations
 from collections.abc import Set
 from dataclasses import dataclass
 
-from planner.hcp import DeadEnd
-from planner.scenario import Scenario
+from planner.scenario.loading import Scenario
+from planner.search.hcp import DeadEnd
 
 # The kinds of cause, in the order they are reported.
 OUT_OF_EVERY_REACH = "outOfEveryReach"

@@ -14,9 +14,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from planner import conversation, diagnosis
-from planner.cluster import check_address
-from planner.hcp import (
+from planner import diagnosis
+from planner.plan.model import Plan
+from planner.scenario.loading import Scenario
+from planner.search.cluster import check_address
+from planner.search.hcp import (
     INLINE_SOLVE_S,
     BranchPlanner,
     ConditionalPlanner,
@@ -27,11 +29,11 @@ from planner.hcp import (
     as_solved,
     ground_ahead,
 )
-from planner.hoped_planning import HopedPlanning
-from planner.plan import Plan, build_plan, kind_and_action, number_states
-from planner.preprocessing import ProgramRequest, preprocessed
-from planner.scenario import Scenario
-from planner.symmetry import Symmetry
+from planner.search.hoped_planning import HopedPlanning
+from planner.search.plan_building import build_plan, kind_and_action, number_states
+from planner.search.preprocessing import ProgramRequest, preprocessed
+from planner.search.symmetry import Symmetry
+from planner.talk import conversation
 from planner.vocabulary import Attach, State
 
 if TYPE_CHECKING:
@@ -63,7 +65,7 @@ def short_first(scenario: Scenario, reachable: frozenset[tuple[str, str]]) -> bo
 
 
 def preprocessed_programs(problem: Problem) -> tuple[tuple[int, str], ...]:
-    """clasp's preprocessed planning programs (`planner.preprocessing`) of the horizons
+    """clasp's preprocessed planning programs (`planner.search.preprocessing`) of the horizons
     branches are first solved with: a step short (`short_first`) and the horizon."""
     horizons = [problem.horizon - 1] if problem.short_first else []
     horizons.append(problem.horizon)
@@ -247,7 +249,7 @@ def plan_scenario(
     `inline_s` how many seconds of solving this process does before starting the
     worker processes (hcp.INLINE_SOLVE_S; only with hcp.SWITCH_MIN_OPEN states
     open); `symmetry` whether states that differ
-    by a renaming of interchangeable parts are solved once (`planner.symmetry`).
+    by a renaming of interchangeable parts are solved once (`planner.search.symmetry`).
     """
     if cluster is not None:
         check_address(cluster)  # before the checks: a typo is known at once
@@ -318,7 +320,7 @@ def _plan(
 
     def hope(answers: dict[tuple[str, str], bool]) -> None:
         """While the check processes decide, the program of the answers hoped for is
-        ground, and planned on (`planner.hoped_planning`)."""
+        ground, and planned on (`planner.search.hoped_planning`)."""
         nonlocal ahead, hoped
         if large or cluster is not None:
             return  # their programs are made elsewhere (preprocessing, actors)
@@ -343,7 +345,7 @@ def _plan(
             problem = replace(problem, programs=preprocessed_programs(problem))
         if cluster is not None:
             # Imported only here: without --cluster, Ray is never loaded.
-            from planner import cluster as ray_cluster
+            from planner.search import cluster as ray_cluster
 
             ray_cluster.connect(cluster)
             workers = workers or ray_cluster.cluster_cpus()

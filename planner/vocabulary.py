@@ -339,7 +339,7 @@ class RequestToAttach(_Word):
 
 
 # The conversation (deterministic, planned around the task plan by
-# planner/conversation.py): greeting, goodbye, warnings, explanations.
+# planner/talk/conversation.py): greeting, goodbye, warnings, explanations.
 @dataclass(frozen=True)
 class Greet(_Word):
     name: ClassVar[str] = "greet"

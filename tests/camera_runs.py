@@ -3,17 +3,17 @@ acts out the plan (what `--responses camera:sim` wires up), for the camera tests
 
 from __future__ import annotations
 
-from app.camera_bench import bench_layout, sim_scene
-from app.camera_input import SIM_SIZE
-from app.camera_source import CameraSource
-from app.execution import Executor
-from app.outcomes import FallbackSource, RandomSource
-from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from app.execution.walker import Executor
+from app.sim.human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from app.sources.bench_layout import bench_layout, sim_scene
+from app.sources.camera import CameraSource
+from app.sources.camera_input import SIM_SIZE
+from app.sources.outcomes import FallbackSource, RandomSource
 from perception.pipeline import BenchPerception
 from perception.sim import SimulatedCamera
 from planner.feasibility.scene import part_boxes
-from planner.plan import Plan
-from planner.scenario_model import Scenario
+from planner.plan.model import Plan
+from planner.scenario.model import Scenario
 
 
 class CameraRun:

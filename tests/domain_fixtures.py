@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from planner.encoding import FeasibilityContext
 from planner.resources import scenario_path
-from planner.scenario import Scenario, parse_scenario
-from planner.solver import BranchSolver, SequentialPlan
+from planner.scenario.loading import Scenario, parse_scenario
+from planner.search.encoding import FeasibilityContext
+from planner.search.solver import BranchSolver, SequentialPlan
 from planner.vocabulary import parse_action
 
 DEFAULT = scenario_path("declared.toml")

@@ -10,10 +10,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from planner.plan import Plan
+from planner.plan.model import Plan
 from planner.planning import plan_scenario
 from planner.resources import scenario_dir
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = scenario_dir()

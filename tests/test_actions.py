@@ -126,7 +126,7 @@ def test_requests(bs) -> None:  # type: ignore[no-untyped-def]
 
 
 def test_verbosity_shapes_what_the_robot_says() -> None:
-    from planner import phrases
+    from planner.talk import phrases
     from planner.vocabulary import AskHelp
 
     ask = AskHelp("leg2", "top")

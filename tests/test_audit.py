@@ -1,4 +1,4 @@
-"""Tests for planner.audit: hand-built plans over a small fact set.
+"""Tests for planner.audit.branches: hand-built plans over a small fact set.
 
 Every state below is written out by hand from docs/domain.md, not produced
 by the audit's own simulator, so the tests check the simulator too.
@@ -12,8 +12,8 @@ from typing import Any
 
 import pytest
 
-from planner.audit import Violation, audit, format_report, tree_stats
-from planner.domain_sim import (
+from planner.audit.branches import Violation, audit, format_report, tree_stats
+from planner.audit.domain import (
     Domain,
     State,
     Term,

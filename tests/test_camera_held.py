@@ -16,17 +16,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.bench_world import hands_x
-from app.camera_bench import bench_layout, code_side, payloads, sim_scene
-from app.camera_input import SIM_SIZE
-from app.simulated_human import SimulatedWorld
+from app.execution.world import hands_x
+from app.sim.human import SimulatedWorld
+from app.sources.bench_layout import bench_layout, code_side, payloads, sim_scene
+from app.sources.camera_input import SIM_SIZE
 from perception import paper_bench
 from perception.intrinsics import CameraIntrinsics
 from perception.pose import CameraPose
 from perception.sim import overhead
 from planner.feasibility.scene import part_boxes
-from planner.scenario import load_scenario
-from planner.scenario_model import Scenario
+from planner.scenario.loading import load_scenario
+from planner.scenario.model import Scenario
 from planner.vocabulary import SenseHumanHolding, SenseHumanHoldingWhichPart
 from tests.camera_runs import CameraRun
 from tests.plan_fixtures import SCENARIOS, plan_of

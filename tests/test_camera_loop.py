@@ -13,19 +13,20 @@ import cv2
 import numpy as np
 import pytest
 
-from app.camera_bench import bench_layout, code_side, marker_ids, payloads, sim_scene
-from app.camera_source import CameraSource, outcome_of
-from app.execution import ExecutionEvent, Executor
-from app.outcomes import FallbackSource, RandomSource
-from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from app.execution.events import ExecutionEvent
+from app.execution.walker import Executor
+from app.sim.human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from app.sources.bench_layout import bench_layout, code_side, marker_ids, payloads, sim_scene
+from app.sources.camera import CameraSource, outcome_of
+from app.sources.outcomes import FallbackSource, RandomSource
 from perception import paper_bench
 from perception.frames import Frame, VideoFileSource
 from perception.pipeline import BenchPerception
 from perception.sim import SimulatedCamera, write_video
 from planner.feasibility.scene import part_boxes
-from planner.plan import Plan, PlanNode
-from planner.scenario import load_scenario
-from planner.scenario_model import Scenario
+from planner.plan.model import Plan, PlanNode
+from planner.scenario.loading import load_scenario
+from planner.scenario.model import Scenario
 from planner.vocabulary import SenseHumanAttachingWhere, SenseHumanHolding
 from tests.plan_fixtures import SCENARIOS, default_plan
 
@@ -194,7 +195,7 @@ def test_an_estimate_that_fits_no_option_is_a_surprise_once(
 
 
 def test_tandem_execute_with_the_simulated_camera(tmp_path: Path) -> None:
-    from app.store import SessionStore
+    from app.sessions.store import SessionStore
     from tests.plan_fixtures import tandem
 
     env = {**__import__("os").environ, "TANDEM_DATA_DIR": str(tmp_path)}
@@ -248,8 +249,9 @@ class PutsItDownInstead(SimulatedHuman):
 def test_what_the_camera_sees_against_the_plan_is_repaired(
     scenario: Scenario, plan: Plan, tmp_path: Path
 ) -> None:
-    from app.repair import REPAIR, Repairer
-    from app.store import SessionStore
+    from app.execution.events import REPAIR
+    from app.execution.repair import Repairer
+    from app.sessions.store import SessionStore
 
     layout = bench_layout(scenario)
     camera = StillSimulatedCamera(SimulatedCamera(sim_scene(scenario), size=RENDER_SIZE))

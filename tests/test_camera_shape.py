@@ -10,12 +10,12 @@ from pathlib import Path
 
 import pytest
 
-from app.camera_bench import bench_layout, sim_scene
-from app.camera_source import belief_words, outcome_of
-from app.execution import ExecutionEvent
-from planner.plan import Plan
-from planner.scenario import load_scenario
-from planner.scenario_model import Scenario
+from app.execution.events import ExecutionEvent
+from app.sources.bench_layout import bench_layout, sim_scene
+from app.sources.camera import belief_words, outcome_of
+from planner.plan.model import Plan
+from planner.scenario.loading import load_scenario
+from planner.scenario.model import Scenario
 from planner.vocabulary import SenseShapeOf
 from tests.camera_runs import CameraRun
 from tests.plan_fixtures import SCENARIOS, plan_of
@@ -128,7 +128,7 @@ def test_a_click_for_another_shape_swaps_the_part_and_the_camera_sees_it(
 
 
 def test_tandem_execute_real_world_with_the_simulated_camera(tmp_path: Path) -> None:
-    from app.store import SessionStore
+    from app.sessions.store import SessionStore
     from tests.plan_fixtures import tandem
 
     env = {**os.environ, "TANDEM_DATA_DIR": str(tmp_path)}

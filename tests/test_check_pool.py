@@ -7,14 +7,14 @@ from pathlib import Path
 
 import pytest
 
-from planner import paper
 from planner.feasibility import BenchChecks, CheckCache
 from planner.feasibility.check_pool import NICENESS, CheckPool, Pair, question
 from planner.feasibility.plan_motions import add_motions
 from planner.feasibility.reach import ReachResult
-from planner.hcp import ConditionalPlanner, DagNode
 from planner.planning import plan_scenario
-from planner.scenario import load_scenario, parse_scenario
+from planner.scenario import paper
+from planner.scenario.loading import load_scenario, parse_scenario
+from planner.search.hcp import ConditionalPlanner, DagNode
 
 PAPER_DIR = Path("static/scenarios/paper")
 

@@ -12,11 +12,11 @@ from pathlib import Path
 import cv2
 import pytest
 
-from app.camera_bench import sim_scene
+from app.sources.bench_layout import sim_scene
 from perception.intrinsics import CameraIntrinsics
 from perception.sim import CameraPlacement, SimulatedCamera
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 from tests.chessboard_frames import board_views
 from tests.plan_fixtures import tandem
 

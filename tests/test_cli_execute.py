@@ -13,8 +13,8 @@ from typing import Any
 
 import pytest
 
-from app.store import DB_NAME, SessionStore, is_plan_path
-from planner.plan import Plan
+from app.sessions.store import DB_NAME, SessionStore, is_plan_path
+from planner.plan.model import Plan
 from tests.plan_fixtures import ROOT, default_plan, paper_plan, tandem, tandem_command
 
 

@@ -11,10 +11,10 @@ from typing import Any
 
 import pytest
 
-from planner.audit import audit
+from planner.audit.branches import audit
 from planner.planning import plan_scenario
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 from planner.sweep import parse_variation, variants
 from tests.plan_fixtures import PAPER_NAMES, ROOT
 
@@ -65,7 +65,7 @@ def test_the_papers_instances_plan_on_ray_as_they_plan_here(tmp_path: Path) -> N
 def test_local_workers_give_the_same_plan_for_one_window(monkeypatch: pytest.MonkeyPatch) -> None:
     # Results are integrated per round in request order and every solve depends on
     # its state alone, so the number of processes does not change the plan.
-    from planner import hcp
+    from planner.search import hcp
 
     # On to the pool after 0.3 s, however few states are open then.
     monkeypatch.setattr(hcp, "SWITCH_MIN_OPEN", 0)
@@ -77,7 +77,7 @@ def test_local_workers_give_the_same_plan_for_one_window(monkeypatch: pytest.Mon
 
 
 def test_one_worker_keeps_the_solvers_defaults() -> None:
-    from planner.hcp import ConditionalPlanner, Problem
+    from planner.search.hcp import ConditionalPlanner, Problem
 
     problem = Problem(("part(top)",), frozenset(), 4)
     assert not ConditionalPlanner(problem, [], workers=1).problem.history_free

@@ -8,10 +8,10 @@ from collections.abc import Iterator
 
 import pytest
 
-from planner.hcp import ConditionalPlanner
 from planner.planning import cycle_collection_paused, plan_scenario
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
+from planner.search.hcp import ConditionalPlanner
 
 
 @pytest.fixture

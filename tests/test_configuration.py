@@ -16,14 +16,14 @@ from typing import Any
 
 import pytest
 
-from app.execution import Executor
-from app.outcomes import ClickSource
+from app.execution.walker import Executor
+from app.sources.outcomes import ClickSource
 from planner import diagnosis
-from planner.audit import audit
-from planner.encoding import PLANNED
-from planner.plan import Plan
+from planner.audit.branches import audit
+from planner.plan.model import Plan
 from planner.planning import plan_scenario
-from planner.scenario import ScenarioError, parse_scenario
+from planner.scenario.loading import ScenarioError, parse_scenario
+from planner.search.encoding import PLANNED
 from planner.vocabulary import (
     Attached,
     SenseHumanHolding,

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import pytest
 
-from planner.audit import audit
-from planner.plan import PAPER_STAT_KEYS, Child, Plan, PlanNode, tree_stats
+from planner.audit.branches import audit
+from planner.plan.model import PAPER_STAT_KEYS, Child, Plan, PlanNode, tree_stats
 from planner.planning import plan_scenario
 from planner.vocabulary import CONVERSATION, Communication
 from tests.domain_fixtures import scenario
@@ -173,9 +173,9 @@ def test_a_plan_from_a_later_state_does_not_greet_again() -> None:
 def test_the_talk_found_from_the_search_is_the_talk_of_the_built_plan() -> None:
     """Planning finds the conversation from the search's DAG before the plan is
     built (`conversation.talk_about`); it is what the built plan's nodes give."""
-    from planner.conversation import talk_about
-    from planner.hcp import ConditionalPlanner
-    from planner.plan import build_plan
+    from planner.search.hcp import ConditionalPlanner
+    from planner.search.plan_building import build_plan
+    from planner.talk.conversation import talk_about
 
     planners: list[ConditionalPlanner] = []
     sc = scenario(CHATTY, NAIL, NO_INITIATIVE)
@@ -209,9 +209,9 @@ def test_the_talk_found_from_the_search_is_the_talk_of_the_built_plan() -> None:
 def test_a_plan_built_with_its_talk_counts_it_as_the_audit_does() -> None:
     """`build_plan` puts the talk in as it builds; the statistics count it as the
     audit's own count does, also before a goal at the root."""
-    from planner.audit import tree_stats as audited_stats
-    from planner.hcp import DagNode
-    from planner.plan import build_plan
+    from planner.audit.branches import tree_stats as audited_stats
+    from planner.search.hcp import DagNode
+    from planner.search.plan_building import build_plan
     from planner.vocabulary import Farewell, Greet, State
 
     chatty = planned(CHATTY, NAIL, NO_INITIATIVE)

@@ -15,7 +15,7 @@ pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import sync_playwright  # noqa: E402
 
 from app.dashboard.server import Dashboard  # noqa: E402
-from app.store import SessionStore  # noqa: E402
+from app.sessions.store import SessionStore  # noqa: E402
 from tests.test_dashboard import CHROMIUM, free_port, wait_for  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -7,15 +7,15 @@ from typing import Any
 
 import pytest
 
-from app.bench_world import hands_x, place_parts, world_at
 from app.dashboard import scenario_edit
 from app.dashboard.scenario_folders import RefusedName, ScenarioFolders
 from app.dashboard.tree_layout import SpanningTree, layout
+from app.execution.world import hands_x, place_parts, world_at
 from planner.feasibility.robot import HOME
 from planner.feasibility.scene import part_boxes, region_extents
-from planner.plan import Plan
+from planner.plan.model import Plan
 from planner.planning import plan_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT = ROOT / "static" / "scenarios" / "default.toml"

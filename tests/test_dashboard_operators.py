@@ -22,8 +22,8 @@ import pytest
 pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, expect  # noqa: E402
 
-from app.execution import INTERRUPTED  # noqa: E402
-from app.store import SessionStore  # noqa: E402
+from app.execution.walker import INTERRUPTED  # noqa: E402
+from app.sessions.store import SessionStore  # noqa: E402
 from tests.plan_fixtures import ROOT, tandem_command  # noqa: E402
 from tests.test_dashboard import browser, free_port, wait_for  # noqa: E402, F401
 

@@ -130,7 +130,7 @@ def test_the_review_shows_what_was_heard(dashboard: Dashboard) -> None:
 def test_mute_stops_the_audio_and_a_missing_model_keeps_the_clicks(
     dashboard: Dashboard, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    from app.outcomes import ClickSource
+    from app.sources.outcomes import ClickSource
 
     speech = dashboard.speech
     plan = dashboard.plan

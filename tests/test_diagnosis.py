@@ -12,8 +12,6 @@ from pathlib import Path
 import pytest
 
 from planner import diagnosis
-from planner.hcp import ConditionalPlanner, DeadEnd, Problem
-from planner.paper import all_instances, instance_name
 from planner.planning import (
     DEFAULT_HORIZON,
     bench_checks,
@@ -22,7 +20,9 @@ from planner.planning import (
     plan_scenario,
 )
 from planner.resources import scenario_path
-from planner.scenario import Scenario, load_scenario
+from planner.scenario.loading import Scenario, load_scenario
+from planner.scenario.paper import all_instances, instance_name
+from planner.search.hcp import ConditionalPlanner, DeadEnd, Problem
 from tests.domain_fixtures import scenario
 from tests.plan_fixtures import ROOT
 

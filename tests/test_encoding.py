@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from planner import encoding
 from planner.resources import encoding_dir
+from planner.search import encoding
 from tests.domain_fixtures import scenario
 
 
@@ -49,7 +49,7 @@ def test_an_undefined_atom_is_logged_with_its_file_and_line(
     edited = _copy_of_the_encodings(tmp_path)
     _append_to_line(edited / "goal.lp", 3, "\nneverDerived(T) :- time(T), undefinedAtom(T).")
     facts, context = _facts()
-    with caplog.at_level(logging.WARNING, logger="planner.encoding"):
+    with caplog.at_level(logging.WARNING, logger="planner.search.encoding"):
         encoding.ground(facts, 4, context, directory=edited)
     assert any(
         f"{edited / 'goal.lp'}:4:" in r.getMessage() and "undefinedAtom" in r.getMessage()
@@ -59,7 +59,7 @@ def test_an_undefined_atom_is_logged_with_its_file_and_line(
 
 def test_the_shipped_encodings_ground_without_messages(caplog: pytest.LogCaptureFixture) -> None:
     facts, context = _facts()
-    with caplog.at_level(logging.INFO, logger="planner.encoding"):
+    with caplog.at_level(logging.INFO, logger="planner.search.encoding"):
         encoding.ground(facts, 4, context)
         # Skipping a concern leaves atoms only it derives undefined: expected, not logged.
         encoding.ground(facts, 4, context, skip=("safety", "commonsense"))

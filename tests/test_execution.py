@@ -9,19 +9,18 @@ from typing import Any
 
 import pytest
 
-from app.execution import ExecutionEvent, Executor
-from app.outcomes import (
+from app.execution.events import ExecutionEvent, Outcome, describe
+from app.execution.walker import Executor
+from app.sessions.store import SessionStore, is_plan_path
+from app.sources.outcomes import (
     ClickSource,
     ExpectedSource,
     FallbackSource,
-    Outcome,
     RandomSource,
     ScriptedSource,
     ScriptError,
-    describe,
 )
-from app.store import SessionStore, is_plan_path
-from planner.plan import Plan
+from planner.plan.model import Plan
 from tests.plan_fixtures import PAPER_NAMES, default_plan, paper_plan
 
 SEEDS = range(100)

@@ -13,8 +13,8 @@ from planner.feasibility import ReachResult, World, reachability_table, reachabl
 from planner.feasibility.path_planner import plan_path
 from planner.feasibility.robot import HOME
 from planner.feasibility.scene import part_boxes, region_extents
-from planner.scenario import load_scenario, parse_scenario
-from planner.scenario_model import Scenario
+from planner.scenario.loading import load_scenario, parse_scenario
+from planner.scenario.model import Scenario
 
 DEFAULT = Path(__file__).resolve().parent.parent / "static" / "scenarios" / "default.toml"
 FINE_STEP = 0.005  # radians: 10x finer than the returned path's spacing
@@ -204,7 +204,7 @@ def test_planning_takes_feasibility_from_geometry_when_asked() -> None:
 
 def test_plan_motions_are_collision_free_within_limits_and_continuous(tmp_path: Path) -> None:
     from planner.feasibility.plan_motions import joint_names
-    from planner.plan import Motion
+    from planner.plan.model import Motion
     from planner.planning import plan_scenario
     from planner.vocabulary import Hold, Unhold
 
@@ -241,7 +241,7 @@ def test_plan_motions_are_collision_free_within_limits_and_continuous(tmp_path: 
 def test_audit_checks_that_motions_are_continuous(tmp_path: Path) -> None:
     import copy
 
-    from planner.audit import audit
+    from planner.audit.branches import audit
     from planner.planning import plan_scenario
 
     doc = plan_scenario(load_scenario(DEFAULT), workers=1, cache_dir=tmp_path).plan.to_json()

@@ -14,7 +14,7 @@ from planner.feasibility.checks import BenchChecks
 from planner.feasibility.grasp_ik import GraspIk, Question
 from planner.feasibility.reach import robot_only
 from planner.feasibility.scene import part_boxes
-from planner.scenario_model import Scenario
+from planner.scenario.model import Scenario
 
 
 @pytest.fixture(scope="module")

@@ -7,10 +7,11 @@ from typing import Any
 
 import pytest
 
-from planner import encoding, solver, walks
-from planner.audit import audit
-from planner.hcp import ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
+from planner.audit.branches import audit
+from planner.plan import walks
 from planner.planning import PlanningCancelled, plan_scenario
+from planner.search import encoding, solver
+from planner.search.hcp import ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
 from planner.vocabulary import CONVERSATION, State, parse_action
 from tests.domain_fixtures import scenario
 
@@ -136,7 +137,7 @@ def test_a_plan_with_few_states_open_is_finished_without_worker_processes(
 ) -> None:
     """Past its CPU mark (`inline_s`) planning goes on to worker processes only with
     many states open: forking and grounding twice costs more than a few solves."""
-    from planner import hcp
+    from planner.search import hcp
 
     planners: list[ConditionalPlanner] = []
     here = plan_scenario(scenario(), workers=2, inline_s=1e-3, planner_hook=planners.append)
@@ -168,8 +169,8 @@ def test_grounds_once_per_horizon_and_solves_many_times(monkeypatch: pytest.Monk
 
 
 def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> None:
-    from planner.hcp import BranchPlanner, DeadEnd, Problem
     from planner.planning import DEFAULT_HORIZON, initial_state
+    from planner.search.hcp import BranchPlanner, DeadEnd, Problem
 
     sc = scenario()
     reach = frozenset(sc.reachable_pairs())
@@ -253,13 +254,13 @@ def test_looking_one_step_short_first_finds_the_horizons_own_plan(
 def test_a_program_preprocessed_by_clasp_gives_the_same_plan(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """Large benches solve with clasp's preprocessed program (planner.preprocessing):
+    """Large benches solve with clasp's preprocessed program (planner.search.preprocessing):
     faster solves of the same program, so the same plan."""
     from dataclasses import replace
 
     from app.benchmark.planner_benchmark import instances, load
-    from planner import preprocessing
     from planner.planning import DEFAULT_HORIZON, preprocessed_programs
+    from planner.search import preprocessing
 
     sc = load(instances(only=["paper-03"])[0], feasibility="declared")
     loaded: list[int] = []
@@ -305,7 +306,7 @@ def test_the_step_priority_counts_steps_alone() -> None:
     there, and can win only above it)."""
     import re
 
-    from planner.encoding import encoding_files
+    from planner.search.encoding import encoding_files
 
     weak = [
         (m.group(1).strip(), m.group(2), int(m.group(3)))
@@ -322,8 +323,8 @@ def test_solvers_ground_ahead_serve_only_their_own_problem() -> None:
     the answers, and ignored otherwise: the plan is the same either way."""
     from dataclasses import replace
 
-    from planner.hcp import ground_ahead
     from planner.planning import DEFAULT_HORIZON, initial_state
+    from planner.search.hcp import ground_ahead
 
     sc = scenario()
     reach = frozenset(sc.reachable_pairs())

@@ -5,10 +5,10 @@ from __future__ import annotations
 import threading
 from pathlib import Path
 
-from planner.hcp import ConditionalPlanner, DagNode, Problem, Progress
-from planner.hoped_planning import HopedPlanning
 from planner.planning import DEFAULT_HORIZON, initial_state, plan_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
+from planner.search.hcp import ConditionalPlanner, DagNode, Problem, Progress
+from planner.search.hoped_planning import HopedPlanning
 from planner.vocabulary import State
 from tests.domain_fixtures import scenario
 

@@ -13,7 +13,7 @@ from planner.feasibility import World
 from planner.feasibility._bullet import pb
 from planner.feasibility.arms import ARMS, HOME
 from planner.feasibility.kinematics import ArmChain
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 
 DEFAULT = Path(__file__).resolve().parent.parent / "static" / "scenarios" / "default.toml"
 

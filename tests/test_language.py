@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from planner.scenario import ScenarioError, load_scenario
+from planner.scenario.loading import ScenarioError, load_scenario
 from planner.vocabulary import QUESTIONS
 from tests.plan_fixtures import KOREAN_DEFAULT, SCENARIOS, default_plan, korean_plan
 

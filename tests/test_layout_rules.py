@@ -18,12 +18,12 @@ def _loaded_after(module: str) -> set[str]:
 
 def test_the_world_model_loads_no_physics() -> None:
     # The world at a node is pure geometry: opening it must not start pybullet or OMPL.
-    loaded = _loaded_after("app.bench_world")
+    loaded = _loaded_after("app.execution.world")
     assert "pybullet" not in loaded and "ompl" not in loaded
 
 
 def test_the_plan_and_the_audit_load_no_solver() -> None:
     # The audit re-simulates plans on its own: it must work without clingo.
-    loaded = _loaded_after("planner.audit")
+    loaded = _loaded_after("planner.audit.branches")
     assert "clingo" not in loaded
-    assert "planner.plan" in loaded and "planner.vocabulary" in loaded
+    assert "planner.plan.model" in loaded and "planner.vocabulary" in loaded

@@ -10,15 +10,15 @@ import cv2
 import numpy as np
 import pytest
 
-from app.camera_input import open_camera
-from app.execution import Executor
-from app.live_camera import LiveCamera, LiveCameraSource
-from app.outcomes import FallbackSource, RandomSource
-from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from app.execution.walker import Executor
+from app.sim.human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from app.sources.camera_input import open_camera
+from app.sources.live_camera import LiveCamera, LiveCameraSource
+from app.sources.outcomes import FallbackSource, RandomSource
 from planner.feasibility.scene import part_boxes
-from planner.plan import Plan
-from planner.scenario import load_scenario
-from planner.scenario_model import Scenario
+from planner.plan.model import Plan
+from planner.scenario.loading import load_scenario
+from planner.scenario.model import Scenario
 from tests.plan_fixtures import SCENARIOS, default_plan
 
 

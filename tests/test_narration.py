@@ -5,9 +5,9 @@ from __future__ import annotations
 import wave
 from pathlib import Path
 
-from app.execution import Executor
-from app.narration import Line, RobotVoice, plan_language
-from app.outcomes import ExpectedSource, RandomSource
+from app.execution.narration import Line, RobotVoice, plan_language
+from app.execution.walker import Executor
+from app.sources.outcomes import ExpectedSource, RandomSource
 from tests.plan_fixtures import default_plan, korean_plan
 
 

@@ -9,8 +9,8 @@ from typing import Any
 import pytest
 
 from app.benchmark import planner_benchmark
-from planner import paper
-from planner.scenario import load_scenario
+from planner.scenario import paper
+from planner.scenario.loading import load_scenario
 from tests.plan_fixtures import tandem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -118,7 +118,7 @@ def test_bench_rejects_unknown_instance() -> None:
 def test_every_paper_instance_plans_with_geometry_and_passes_the_audit(
     name: str, tmp_path: Path
 ) -> None:
-    from planner.audit import audit
+    from planner.audit.branches import audit
     from planner.feasibility import BenchChecks, CheckCache
     from planner.planning import plan_scenario
 

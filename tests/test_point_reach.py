@@ -11,16 +11,17 @@ from typing import Any
 
 import pytest
 
-from app.execution import Executor
-from app.outcomes import ExpectedSource, FallbackSource, ScriptedSource
-from app.repair import REPAIR, Repairer
-from app.retargeting import retargeter_for
-from planner.audit import audit
-from planner.audit_slots import slot_problems
-from planner.plan import Plan
+from app.execution.events import REPAIR
+from app.execution.repair import Repairer
+from app.execution.retargeting import retargeter_for
+from app.execution.walker import Executor
+from app.sources.outcomes import ExpectedSource, FallbackSource, ScriptedSource
+from planner.audit.branches import audit
+from planner.audit.slots import slot_problems
+from planner.plan.model import Plan
 from planner.planning import plan_scenario
-from planner.scenario import ScenarioError, parse_scenario
-from planner.scenario_model import Scenario
+from planner.scenario.loading import ScenarioError, parse_scenario
+from planner.scenario.model import Scenario
 from planner.vocabulary import SenseHumanAttachingWhere
 from tests.plan_fixtures import SCENARIOS
 from tests.test_slots import _script_to_choice

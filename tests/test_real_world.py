@@ -9,13 +9,13 @@ from collections import Counter
 
 import pytest
 
-from app.execution import Executor
-from app.outcomes import RandomSource
-from planner.audit import audit
-from planner.audit_slots import slot_problems
-from planner.plan import Plan
+from app.execution.walker import Executor
+from app.sources.outcomes import RandomSource
+from planner.audit.branches import audit
+from planner.audit.slots import slot_problems
+from planner.plan.model import Plan
 from planner.planning import plan_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 from planner.vocabulary import Attached, SenseHumanHolding, SenseShapeOf, parse_fluent
 from tests.plan_fixtures import ROOT
 

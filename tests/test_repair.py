@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 
 from app.dashboard.review_panel import session_label
-from app.repair import REPAIR
-from app.store import SessionStore
-from app.surprises import SurpriseError, parse_surprise
+from app.execution.events import REPAIR
+from app.execution.surprises import SurpriseError, parse_surprise
+from app.sessions.store import SessionStore
 from tests.plan_fixtures import ROOT, tandem_command
 
 # The default plan: n3 asks whether the human holds a part (leg1 is already on

@@ -7,7 +7,7 @@ import pytest
 from app.benchmark.scaling import Trace, replay, trace
 from planner.planning import plan_scenario
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 
 
 def in_flight(run: Trace) -> int:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from planner.scenario import ScenarioError, load_scenario, parse_scenario
+from planner.scenario.loading import ScenarioError, load_scenario, parse_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT = ROOT / "static" / "scenarios" / "declared.toml"

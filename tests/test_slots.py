@@ -13,17 +13,11 @@ from typing import Any
 
 import pytest
 
-from app.execution import ExecutionEvent, Executor
-from app.outcomes import (
-    ClickSource,
-    ExpectedSource,
-    FallbackSource,
-    Offer,
-    ScriptedSource,
-    describe,
-)
-from app.retargeting import retargeter_for
-from planner.audit import audit
+from app.execution.events import ExecutionEvent, describe
+from app.execution.retargeting import retargeter_for
+from app.execution.walker import Executor
+from app.sources.outcomes import ClickSource, ExpectedSource, FallbackSource, Offer, ScriptedSource
+from planner.audit.branches import audit
 from planner.feasibility.cache import CheckCache
 from planner.feasibility.checks import BenchChecks
 from planner.feasibility.grasp_ik import POS_TOL
@@ -36,9 +30,9 @@ from planner.feasibility.slot_map import (
     SlotMap,
     connection_points,
 )
-from planner.plan import Plan
-from planner.scenario import load_scenario
-from planner.scenario_model import Scenario
+from planner.plan.model import Plan
+from planner.scenario.loading import load_scenario
+from planner.scenario.model import Scenario
 from planner.vocabulary import Attach, Hands, SenseHumanAttachingWhere
 from tests.plan_fixtures import SCENARIOS, plan_of, tandem
 
@@ -193,7 +187,7 @@ def test_tandem_execute_follows_a_scripted_slot_to_the_goal(plan: Plan, tmp_path
     assert ": goal after" in done.stdout
     assert f"-> {branch} (scripted)" in done.stderr
     assert f"at {real}" in done.stderr  # the event says where the human really attached
-    from app.store import SessionStore
+    from app.sessions.store import SessionStore
 
     with SessionStore(data) as store:
         session = store.list_sessions()[0]
@@ -220,7 +214,7 @@ def _wrong_slot() -> tuple[dict[str, Any], dict[str, Any], str, str]:
 
 
 def test_audit_flags_a_motion_to_the_wrong_slot() -> None:
-    from planner.audit_slots import slot_problems
+    from planner.audit.slots import slot_problems
 
     doc, broken, node_id, arm = _wrong_slot()
     scenario = load_scenario(SMALL)
@@ -275,7 +269,7 @@ def test_clicks_offer_every_free_slot_and_a_click_elsewhere_is_followed(
 def test_the_robot_attaches_at_a_free_slot_it_reaches_when_the_named_one_is_out_of_reach(
     tmp_path: Path,
 ) -> None:
-    from planner.audit_slots import slot_problems
+    from planner.audit.slots import slot_problems
 
     path = SCENARIOS / "default.toml"  # the left arm reaches only the top's c2
     scenario, plan = load_scenario(path), plan_of(path)
@@ -305,7 +299,7 @@ def test_the_robot_attaches_at_a_free_slot_it_reaches_when_the_named_one_is_out_
 
 
 def test_audit_flags_a_slot_map_that_is_not_one_to_one() -> None:
-    from planner.audit_slots import slot_problems
+    from planner.audit.slots import slot_problems
 
     path = SCENARIOS / "default.toml"
     doc = plan_of(path).to_json()
@@ -318,7 +312,8 @@ def test_audit_flags_a_slot_map_that_is_not_one_to_one() -> None:
 def test_after_a_repair_the_world_keeps_its_slots_and_the_new_plan_is_re_targeted(
     tmp_path: Path,
 ) -> None:
-    from app.repair import REPAIR, Repairer
+    from app.execution.events import REPAIR
+    from app.execution.repair import Repairer
 
     # The default plan's left arm put leg1 at the top's real c2 (it cannot reach c1);
     # the human then attaches leg2 at the plan's c2, which is the real c1.

@@ -18,10 +18,10 @@ from pathlib import Path
 
 import pytest
 
-from app.execution import Executor
-from app.outcomes import ExpectedSource
-from app.session_db import StoreError
-from app.store import DB_NAME, SessionStore
+from app.execution.walker import Executor
+from app.sessions.database import StoreError
+from app.sessions.store import DB_NAME, SessionStore
+from app.sources.outcomes import ExpectedSource
 from tests.plan_fixtures import ROOT, default_plan, free_port, tandem_command
 
 

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from app.execution import ExecutionEvent, Executor
-from app.outcomes import Evidence, ExpectedSource, Outcome, RandomSource
-from app.processes import process_start
-from app.store import (
+from app.execution.events import Evidence, ExecutionEvent, Outcome
+from app.execution.walker import Executor
+from app.sessions.processes import process_start
+from app.sessions.store import (
     DB_NAME,
     SessionStore,
     UnknownSession,
@@ -25,7 +25,8 @@ from app.store import (
     is_plan_path,
     plan_hash,
 )
-from planner.plan import Plan, PlanNode, ScenarioRef
+from app.sources.outcomes import ExpectedSource, RandomSource
+from planner.plan.model import Plan, PlanNode, ScenarioRef
 from tests.plan_fixtures import default_plan
 
 

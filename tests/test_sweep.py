@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from PIL import Image, ImageStat
 
-from planner.plan import STAT_KEYS
+from planner.plan.model import STAT_KEYS
 from planner.resources import find_scenario
 from planner.sweep import parse_variation, plan_variant, variants
 from tests.plan_fixtures import tandem

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import pytest
 
-from planner import paper
-from planner.audit import audit
+from planner.audit.branches import audit
 from planner.planning import feasible_pairs, plan_scenario
-from planner.scenario import Scenario, parse_scenario
-from planner.symmetry import Symmetry, substitute
+from planner.scenario import paper
+from planner.scenario.loading import Scenario, parse_scenario
+from planner.search.symmetry import Symmetry, substitute
 
 
 def _declared(family: str, n: int) -> Scenario:

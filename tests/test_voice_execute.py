@@ -17,9 +17,9 @@ from pathlib import Path
 import pytest
 
 from app.cli.main import main
-from app.execution import ExecutionEvent
-from app.store import SessionStore, is_plan_path
-from planner.plan import Plan
+from app.execution.events import ExecutionEvent
+from app.sessions.store import SessionStore, is_plan_path
+from planner.plan.model import Plan
 from tests.plan_fixtures import KOREAN_DEFAULT, korean_plan, tandem
 
 SEEDS = range(20)

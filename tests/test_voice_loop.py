@@ -13,11 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from app.execution import Executor
-from app.narration import plan_language
-from app.outcomes import FallbackSource, RandomSource
-from app.voice_source import SimulatedSpeaker, VoiceSource, is_question
-from planner.plan import Plan
+from app.execution.narration import plan_language
+from app.execution.walker import Executor
+from app.sources.outcomes import FallbackSource, RandomSource
+from app.sources.voice import SimulatedSpeaker, VoiceSource, is_question
+from planner.plan.model import Plan
 from speech.recognition import Recognizer
 from speech.sources import SimulatedVoice
 from speech.synthesis import synthesize

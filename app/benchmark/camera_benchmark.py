@@ -28,21 +28,21 @@ from pathlib import Path
 
 import cv2
 
-from app.camera_bench import bench_layout, sim_scene
-from app.camera_input import SIM_SIZE
-from app.camera_source import CameraSource
-from app.execution import Executor
-from app.live_camera import LiveCamera, LiveCameraSource
-from app.outcomes import FallbackSource, RandomSource
-from app.simulated_human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from app.execution.walker import Executor
+from app.sim.human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
+from app.sources.bench_layout import bench_layout, sim_scene
+from app.sources.camera import CameraSource
+from app.sources.camera_input import SIM_SIZE
+from app.sources.live_camera import LiveCamera, LiveCameraSource
+from app.sources.outcomes import FallbackSource, RandomSource
 from perception.pipeline import BenchPerception
 from perception.sim import SimulatedCamera
 from planner.feasibility.scene import part_boxes
-from planner.plan import Plan
+from planner.plan.model import Plan
 from planner.planning import plan_scenario
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
-from planner.scenario_model import Scenario
+from planner.scenario.loading import load_scenario
+from planner.scenario.model import Scenario
 
 TARGET_S = 0.5
 

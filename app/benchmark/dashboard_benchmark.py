@@ -21,10 +21,10 @@ from collections.abc import Sequence
 
 from app.dashboard.mesh_detail import DEFAULT_DETAIL
 from app.dashboard.server import Dashboard
-from planner.plan import format_table
+from planner.plan.model import format_table
 from planner.planning import plan_scenario
 from planner.resources import scenario_path
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 
 DEFAULT = scenario_path("paper/U10.toml")
 

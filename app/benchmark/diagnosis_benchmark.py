@@ -18,7 +18,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from planner.plan import format_table
+from planner.plan.model import format_table
 from planner.resources import scenario_path
 
 TARGET_S = 2.0

@@ -1,9 +1,9 @@
 """The paper's benchmark: plan, audit and time every instance beside the paper's numbers.
 
-The instances are the scenario files of `planner.paper` (the shipped
+The instances are the scenario files of `planner.scenario.paper` (the shipped
 `paper/` scenarios). `tandem bench` (app/cli/benchmark.py) runs and prints it.
 Each is planned in-process with `plan_scenario`, audited with
-`planner.audit.audit`, and its tree statistics are set beside Tables 1-3 of
+`planner.audit.branches.audit`, and its tree statistics are set beside Tables 1-3 of
 Rizwan, Patoglu and Erdem (TPLP), transcribed in `PAPER` below.
 """
 
@@ -17,13 +17,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from planner import paper
-from planner.audit import audit
-from planner.hcp import DeadEnd
-from planner.plan import STAT_KEYS, format_table
+from planner.audit.branches import audit
+from planner.plan.model import STAT_KEYS, format_table
 from planner.planning import plan_scenario
 from planner.resources import scenario_path
-from planner.scenario import Scenario, load_scenario, parse_scenario
+from planner.scenario import paper
+from planner.scenario.loading import Scenario, load_scenario, parse_scenario
+from planner.search.hcp import DeadEnd
 
 SCENARIO_DIR = scenario_path("paper")
 # The paper's real-world task (README, "The real-world task"): benchmarked after

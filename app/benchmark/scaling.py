@@ -23,10 +23,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from app.benchmark import planner_benchmark
-from planner.hcp import ConditionalPlanner
-from planner.plan import format_table
+from planner.plan.model import format_table
 from planner.planning import plan_scenario
-from planner.scenario import Scenario
+from planner.scenario.loading import Scenario
+from planner.search.hcp import ConditionalPlanner
 
 PREDICTED = (1, 2, 8, 32, 128)
 DEFAULT_INSTANCES = ("paper-05", "U10")
@@ -122,7 +122,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     use_ray = not args.no_ray
     if use_ray:
-        from planner import cluster
+        from planner.search import cluster
 
         try:
             cluster.connect("auto", num_cpus=2)

@@ -26,8 +26,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from app.store import SessionStore
-from planner.plan import format_table
+from app.sessions.store import SessionStore
+from planner.plan.model import format_table
 
 # Niceness of the browsers (see yield_to_server).
 BROWSER_NICE = 15

@@ -12,9 +12,9 @@ import sys
 from pathlib import Path
 
 from app.cli.exit_codes import BadInput
-from planner.audit import Violation, audit, format_report
+from planner.audit.branches import Violation, audit, format_report
 from planner.resources import find_scenario
-from planner.scenario import ScenarioError, load_scenario
+from planner.scenario.loading import ScenarioError, load_scenario
 
 
 def register(parser: argparse.ArgumentParser) -> None:
@@ -54,6 +54,6 @@ def _slot_violations(doc: dict[str, object], name: str) -> list[Violation]:
         print(f"{name}: no geometry (declared feasibility): motion targets not checked",
               file=sys.stderr)  # fmt: skip
         return []
-    from planner.audit_slots import slot_problems  # loads pybullet: only when asked
+    from planner.audit.slots import slot_problems  # loads pybullet: only when asked
 
     return [Violation(node, "", message) for node, message in slot_problems(doc, scenario)]

@@ -11,7 +11,7 @@ from pathlib import Path
 from types import FrameType
 
 from app.cli.exit_codes import BadInput
-from planner.cluster import check_address
+from planner.search.cluster import check_address
 
 REMOTE_WARNING = (
     "warning: the dashboard listens on {host}, beyond this machine. viser cannot refuse "

@@ -13,24 +13,24 @@ from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
 from app.cli.voice_args import voice_from_args
-from app.execution import ExecutionEvent, Executor, Narrator
-from app.outcomes import (
+from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource
+from app.execution.repair import Repairer
+from app.execution.retargeting import retargeter_for
+from app.execution.walker import Executor, Narrator
+from app.sessions.store import SessionStore
+from app.sources.outcomes import (
     ConsoleSource,
     ExpectedSource,
     FallbackSource,
-    OutcomeSource,
     RandomSource,
     ScriptedSource,
 )
-from app.repair import REPAIR, Repairer
-from app.retargeting import retargeter_for
-from app.store import SessionStore
 from planner.feasibility.slot_map import connection_points
-from planner.plan import Plan, PlanFormatError
+from planner.plan.model import Plan, PlanFormatError
 from planner.planning import plan_scenario
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
-from planner.scenario_model import Scenario
+from planner.scenario.loading import load_scenario
+from planner.scenario.model import Scenario
 from speech.languages import LANGUAGES
 
 if TYPE_CHECKING:  # OpenCV is loaded only for camera runs
@@ -141,7 +141,7 @@ def _calibration(args: argparse.Namespace) -> CameraIntrinsics | None:
         return None
     if not args.responses.startswith("camera:"):
         raise BadInput("--calibration goes with --responses camera:SOURCE")
-    from app.camera_input import CalibrationFileError, load_calibration
+    from app.sources.camera_input import CalibrationFileError, load_calibration
 
     try:
         return load_calibration(args.calibration)
@@ -188,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
         if scenario is None:
             raise BadInput("--responses camera:... needs the scenario file, not a plan file")
         # Imported here: the simulated camera loads pybullet, which other runs never need.
-        from app.camera_responses import camera_responses
+        from app.responses.camera import camera_responses
         from perception.frames import SourceError
 
         try:

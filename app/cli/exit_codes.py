@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import argparse
 
-from app.outcomes import ScriptError
-from app.session_db import StoreError
-from app.store import UnknownSession
-from planner.cluster import ClusterUnavailable
-from planner.hcp import DeadEnd
-from planner.scenario import ScenarioError
+from app.sessions.database import StoreError
+from app.sessions.store import UnknownSession
+from app.sources.outcomes import ScriptError
+from planner.scenario.loading import ScenarioError
+from planner.search.cluster import ClusterUnavailable
+from planner.search.hcp import DeadEnd
 
 
 class BadInput(Exception):

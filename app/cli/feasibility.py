@@ -6,9 +6,9 @@ import argparse
 import time
 
 from app.cli.exit_codes import BadInput
-from planner.plan import format_table
+from planner.plan.model import format_table
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 
 
 def register(parser: argparse.ArgumentParser) -> None:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from app.cli.exit_codes import BadInput
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 
 SUFFIXES = (".pdf", ".png")
 
@@ -54,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = load_scenario(find_scenario(Path(args.input)))
     # Imported here: the sheet and the bench layout pull in Pillow, segno and OpenCV,
     # which the other subcommands never need.
-    from app.camera_bench import bench_layout, marker_ids
+    from app.sources.bench_layout import bench_layout, marker_ids
     from perception.markers import PartCode
     from perception.sheet import render_marker_sheet
 

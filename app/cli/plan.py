@@ -6,11 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from planner.hcp import Progress
-from planner.plan import TABLE_HEADER, format_table, stats_row
+from planner.plan.model import TABLE_HEADER, format_table, stats_row
 from planner.planning import plan_scenario
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
+from planner.search.hcp import Progress
 
 
 def register(parser: argparse.ArgumentParser) -> None:

@@ -7,8 +7,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from planner import paper
-from planner.scenario import ScenarioError, load_scenario
+from planner.scenario import paper
+from planner.scenario.loading import ScenarioError, load_scenario
 
 
 def register(parser: argparse.ArgumentParser) -> None:

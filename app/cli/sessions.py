@@ -9,9 +9,9 @@ from datetime import date
 from pathlib import Path
 
 from app.cli.exit_codes import BadInput
-from app.evidence_summary import camera_agreement, summary
-from app.execution import RESULTS
-from app.store import SessionStore, iso
+from app.execution.events import RESULTS
+from app.sessions.store import SessionStore, iso
+from app.sessions.summary import camera_agreement, summary
 
 
 def register(parser: argparse.ArgumentParser) -> None:

@@ -10,9 +10,9 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
+from app.benchmark.sweep_plot import plot_sweep
 from app.cli.exit_codes import BadInput
-from app.sweep_plot import plot_sweep
-from planner.plan import format_table
+from planner.plan.model import format_table
 from planner.resources import find_scenario
 from planner.sweep import ROW_KEYS, Variant, Variation, parse_variation, plan_variant, variants
 
@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _variants(scenarios: list[str], variations: list[Variation]) -> list[Variant]:
-    from planner.scenario import load_scenario
+    from planner.scenario.loading import load_scenario
 
     out = []
     for name in scenarios:
@@ -78,7 +78,7 @@ def _variants(scenarios: list[str], variations: list[Variation]) -> list[Variant
 def run_variants(todo: list[Variant], cluster: str | None, workers: int) -> list[dict[str, Any]]:
     """Plans every variant: as Ray tasks on `cluster`, else in `workers` local processes."""
     if cluster:
-        from planner import cluster as ray_cluster
+        from planner.search import cluster as ray_cluster
 
         ray_cluster.connect(cluster)
         return ray_cluster.map_tasks(plan_variant, todo)

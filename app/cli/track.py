@@ -19,7 +19,7 @@ from typing import Any
 
 from app.cli.exit_codes import BadInput
 from planner.resources import find_scenario
-from planner.scenario import load_scenario
+from planner.scenario.loading import load_scenario
 
 
 def register(parser: argparse.ArgumentParser) -> None:
@@ -58,9 +58,9 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput(f"--frames {args.frames}: must be 1 or more")
     scenario = load_scenario(find_scenario(Path(args.scenario)))
     # Imported here: OpenCV (and pybullet for sim) only for the camera commands.
-    from app.camera_bench import bench_layout
-    from app.camera_input import CalibrationFileError, load_calibration, open_camera
-    from app.camera_source import where_words
+    from app.sources.bench_layout import bench_layout
+    from app.sources.camera import where_words
+    from app.sources.camera_input import CalibrationFileError, load_calibration, open_camera
     from perception.frames import SourceError
     from perception.pipeline import BenchPerception
 

@@ -12,11 +12,11 @@ import argparse
 import sys
 
 from app.cli.exit_codes import BadInput
-from app.narration import Line, plan_language
-from app.outcomes import RandomSource, ScriptError
-from app.voice_responses import VoiceResponses, voice_responses
-from app.voice_source import Attempt
-from planner.plan import Plan
+from app.execution.narration import Line, plan_language
+from app.responses.voice import VoiceResponses, voice_responses
+from app.sources.outcomes import RandomSource, ScriptError
+from app.sources.voice import Attempt
+from planner.plan.model import Plan
 from speech.devices import NoAudioDevice, play_local
 from speech.languages import UnknownLanguage
 from speech.models import NoSpeechModel

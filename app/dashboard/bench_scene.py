@@ -13,8 +13,8 @@ import viser
 import yourdfpy
 from viser.extras import ViserUrdf
 
-from app.bench_world import WorldView
 from app.dashboard.mesh_detail import DEFAULT_DETAIL, reduce_detail
+from app.execution.world import WorldView
 from planner.feasibility.arms import ARMS, HOME, JOINT_SUFFIXES
 from planner.feasibility.robot import baxter_urdf, human_urdf
 from planner.feasibility.scene import (
@@ -25,7 +25,7 @@ from planner.feasibility.scene import (
     part_boxes,
     region_extents,
 )
-from planner.scenario_model import Scenario
+from planner.scenario.model import Scenario
 
 FLOOR_Z = -0.93
 REGION_COLOURS = {

@@ -20,13 +20,13 @@ import cv2
 import numpy as np
 import viser
 
-from app.camera_input import open_camera
-from app.camera_source import belief_words
 from app.dashboard.operator import Operator
 from app.dashboard.scenario_folders import RefusedName, find_recording
 from app.dashboard.stage import CameraChanged, Events, ScenarioChanged, Stage
-from app.live_camera import LiveCamera, LiveView
-from app.simulated_human import StillSimulatedCamera
+from app.sim.human import StillSimulatedCamera
+from app.sources.camera import belief_words
+from app.sources.camera_input import open_camera
+from app.sources.live_camera import LiveCamera, LiveView
 from perception.annotate import annotate
 from perception.frames import SourceError
 
@@ -36,7 +36,7 @@ SHOW_EVERY_S = 0.2  # the page's view refreshes five times a second at most
 
 
 def source_spec(kind: str, where: str) -> str:
-    """The SOURCE spec of app.camera_input for a choice in the panel."""
+    """The SOURCE spec of app.sources.camera_input for a choice in the panel."""
     if kind == "simulated":
         return "sim"
     if kind == "webcam":

@@ -27,13 +27,14 @@ from app.dashboard.stage import (
     PlanChanged,
     Stage,
 )
-from app.execution import ExecutionEvent, Executor, Listener, Narrator
-from app.outcomes import ClickSource, FallbackSource, Offer, OutcomeSource
-from app.repair import REPAIR, Repairer
-from app.retargeting import retargeter_for
-from app.session_db import StoreError
-from app.store import SessionStore
-from planner.plan import Motion, Plan
+from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource
+from app.execution.repair import Repairer
+from app.execution.retargeting import retargeter_for
+from app.execution.walker import Executor, Listener, Narrator
+from app.sessions.database import StoreError
+from app.sessions.store import SessionStore
+from app.sources.outcomes import ClickSource, FallbackSource, Offer
+from planner.plan.model import Motion, Plan
 from planner.vocabulary import SenseLengthOf, SenseShapeOf
 
 # Who answers and who speaks in an execution of a plan, given the clicks to fall

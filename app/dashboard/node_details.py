@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import html
 
-from planner.plan import STAT_KEYS, TIMING_KEYS, Plan, PlanNode
+from planner.plan.model import STAT_KEYS, TIMING_KEYS, Plan, PlanNode
 
 KIND_WORDS = {
     "actuation": "robot action",

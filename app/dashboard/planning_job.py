@@ -8,11 +8,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
-from planner.cluster import ClusterUnavailable
-from planner.hcp import ConditionalPlanner, DeadEnd, Progress
-from planner.plan import Plan, build_plan
+from planner.plan.model import Plan
 from planner.planning import PlanningCancelled, plan_scenario
-from planner.scenario_model import Scenario
+from planner.scenario.model import Scenario
+from planner.search.cluster import ClusterUnavailable
+from planner.search.hcp import ConditionalPlanner, DeadEnd, Progress
+from planner.search.plan_building import build_plan
 
 JobState = Literal["idle", "planning", "done", "cancelled", "failed"]
 

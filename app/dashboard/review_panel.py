@@ -17,12 +17,11 @@ import numpy as np
 import viser
 
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
-from app.evidence_summary import summary
-from app.execution import RESULTS, ExecutionEvent
-from app.repair import REPAIR
-from app.session_db import StoreError
-from app.store import SessionRecord, SessionStore, UnknownSession, iso
-from planner.plan import Plan, PlanFormatError
+from app.execution.events import REPAIR, RESULTS, ExecutionEvent
+from app.sessions.database import StoreError
+from app.sessions.store import SessionRecord, SessionStore, UnknownSession, iso
+from app.sessions.summary import summary
+from planner.plan.model import Plan, PlanFormatError
 
 ANY = "any"
 FILTERS = (ANY, *RESULTS)

@@ -16,8 +16,8 @@ import tomli_w
 
 from app.dashboard.scenario_folders import RefusedName, ScenarioFolders
 from planner.resources import find_scenario
-from planner.scenario import ScenarioError, load_scenario, parse_scenario
-from planner.scenario_model import Scenario
+from planner.scenario.loading import ScenarioError, load_scenario, parse_scenario
+from planner.scenario.model import Scenario
 
 
 @dataclass

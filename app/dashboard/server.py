@@ -15,7 +15,6 @@ from typing import Any
 
 import viser
 
-from app.bench_world import world_at
 from app.dashboard import scenario_edit
 from app.dashboard.bench_scene import BenchScene
 from app.dashboard.camera_panel import CameraPanel
@@ -40,10 +39,11 @@ from app.dashboard.stage import (
     ScenarioChanged,
 )
 from app.dashboard.tree_view import WALL_X, TreeView
-from app.session_db import StoreError
-from app.store import SessionStore, default_data_dir
-from planner.plan import Plan, PlanNode
-from planner.scenario_model import Scenario
+from app.execution.world import world_at
+from app.sessions.database import StoreError
+from app.sessions.store import SessionStore, default_data_dir
+from planner.plan.model import Plan, PlanNode
+from planner.scenario.model import Scenario
 
 # The "Scenario" choice while a file that no choice names is loaded (a path given
 # on the command line outside the scenario folders, or shadowed by a user's file).

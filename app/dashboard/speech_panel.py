@@ -28,12 +28,13 @@ from typing import Any, Literal
 import viser
 
 from app.dashboard.stage import Events, ExecutionFinished, Stage
-from app.execution import Narrator
-from app.narration import Line, RobotVoice, plan_language
-from app.outcomes import ClickSource, OutcomeSource
-from app.voice_responses import VoiceResponses, voice_responses
-from app.voice_source import Attempt
-from planner.plan import Plan
+from app.execution.events import OutcomeSource
+from app.execution.narration import Line, RobotVoice, plan_language
+from app.execution.walker import Narrator
+from app.responses.voice import VoiceResponses, voice_responses
+from app.sources.outcomes import ClickSource
+from app.sources.voice import Attempt
+from planner.plan.model import Plan
 from speech.devices import NoAudioDevice, play_local
 from speech.models import NoSpeechModel
 from speech.recognition import Recognizer

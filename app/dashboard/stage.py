@@ -23,10 +23,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
-from app.execution import ExecutionEvent
-from app.outcomes import OutcomeSource
-from planner.plan import Plan
-from planner.scenario_model import Scenario
+from app.execution.events import ExecutionEvent, OutcomeSource
+from planner.plan.model import Plan
+from planner.scenario.model import Scenario
 
 
 class Stage(Protocol):

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass, field
 
-from planner.plan import Plan
+from planner.plan.model import Plan
 
 COLUMN = 1.0  # layout units between neighbouring leaves
 ROW = 1.6  # between depths

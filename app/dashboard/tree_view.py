@@ -16,7 +16,7 @@ import numpy as np
 import viser
 
 from app.dashboard.tree_layout import SpanningTree, TreeLayout, layout
-from planner.plan import KIND_COLOURS, Plan
+from planner.plan.model import KIND_COLOURS, Plan
 from planner.vocabulary import Action
 
 WALL_X = 8.0

@@ -13,7 +13,7 @@ if TYPE_CHECKING:
     from planner.feasibility.cache import CheckCache
     from planner.feasibility.checks import BenchChecks
     from planner.feasibility.reach import PlannerName, ReachResult, Reason, World
-    from planner.scenario_model import Scenario
+    from planner.scenario.model import Scenario
 
 # Loaded on first use: `planner.feasibility.arms` and `.scene` are plain data that
 # the dashboard reads without loading pybullet and OMPL.

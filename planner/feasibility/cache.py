@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.feasibility.scene import part_boxes, region_extents
-from planner.scenario_model import Scenario
+from planner.scenario.model import Scenario
 
 # Bump when reach.py, path_planner.py, robot.py or scene.py change what a check returns.
 # 6: a reach path's simplification restarts OMPL's seed sequence (reach.py), so it
@@ -80,7 +80,7 @@ class CheckCache:
 
     def __init__(self, directory: Path | str | None = None) -> None:
         # Planning may ask from a thread other than the one that opened the cache
-        # (`planner.hoped_planning`): one connection, one caller at a time.
+        # (`planner.search.hoped_planning`): one connection, one caller at a time.
         self._lock = threading.Lock()
         if directory == ":memory:":
             self._db = sqlite3.connect(":memory:", check_same_thread=False)

@@ -35,7 +35,7 @@ from planner.feasibility.grasp_ik import GraspIk, IkAnswers, Question
 from planner.feasibility.reach import ReachDecision, ReachResult, Reason, World, robot_only
 from planner.feasibility.robot import BaxterBody
 from planner.feasibility.scene import Site, part_boxes
-from planner.scenario_model import Scenario
+from planner.scenario.model import Scenario
 
 Config = list[float]
 Pair = tuple[str, str]  # arm, and a part id or a Site's text ("top@c2")

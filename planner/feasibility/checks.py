@@ -28,7 +28,7 @@ from planner.feasibility.check_pool import CheckPool, Pair, question
 from planner.feasibility.grasp_ik import IkAnswers
 from planner.feasibility.reach import PlannerName, ReachResult, Reason, World
 from planner.feasibility.scene import Site
-from planner.scenario_model import Scenario
+from planner.scenario.model import Scenario
 
 Config = list[float]
 Place = str | Site  # a part's work point, or a connection point's site

@@ -26,7 +26,7 @@ from planner.feasibility.arms import joint_names
 from planner.feasibility.checks import BenchChecks, Place
 from planner.feasibility.scene import Site, site_of
 from planner.feasibility.slot_map import ROBOT_SLOT, SLOTS, SlotMap, robot_choice
-from planner.plan import Motion, Plan
+from planner.plan.model import Motion, Plan
 from planner.vocabulary import Action, Attach, Hands, Hold, Unhold
 
 DECIMALS = 4  # 0.1 mrad: far below what the arm can resolve; keeps plan files small

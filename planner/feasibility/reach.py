@@ -21,7 +21,7 @@ from planner.feasibility.grasp_ik import IK_HOPELESS, GraspIk, IkAnswers, Questi
 from planner.feasibility.path_planner import FoundPath, find_path, finish_path, plan_path, seed_ompl
 from planner.feasibility.robot import BaxterBody, load_robot
 from planner.feasibility.scene import Scene, Site, build_scene
-from planner.scenario_model import Scenario
+from planner.scenario.model import Scenario
 
 Reason = Literal["ok", "no IK", "IK in collision", "no path"]
 PlannerName = Literal["RRTConnect", "RRTstar"]

@@ -19,8 +19,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from planner.scenario_model import Part, Scenario
-from planner.scenario_sections import DEFAULT_REGION_X
+from planner.scenario.model import Part, Scenario
+from planner.scenario.sections import DEFAULT_REGION_X
 
 BENCH_TOP_Z = -0.05  # Baxter's base frame is ~0.93 m up; the bench top ~0.88 m
 BENCH_THICKNESS = 0.04

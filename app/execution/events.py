@@ -1,0 +1,141 @@
+"""The words of an execution, in one low module every other imports.
+
+What an execution says as it runs (`ExecutionEvent`), how it ends (`Result`),
+the outcome a source chose (`Outcome`) and what decided it (`Evidence`), and
+the protocol of a source (`OutcomeSource`). It imports only the planner's plan
+and vocabulary, so the session store and its readers load neither clingo nor
+pybullet.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal, Protocol
+
+from app.execution.surprises import Surprise
+from planner.plan.model import Motion, Plan, PlanNode
+from planner.vocabulary import (
+    QUESTIONS,
+    Action,
+    SenseHumanAttachingWhere,
+    SenseHumanHolding,
+    SenseHumanHoldingWhichPart,
+    SenseHumanUnholding,
+    SenseLengthOf,
+    SenseShapeOf,
+    State,
+)
+
+REPAIR = "repair"  # the kind of the event where an execution changes plans
+
+Node = PlanNode
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """What decided an answer, kept with the session for the review.
+
+    `detail` is JSON-ready (the words heard, the engine that spoke, what the
+    camera saw, what the simulated human really did); `jpeg` is a small
+    picture of the frame that decided a camera answer.
+    """
+
+    detail: Mapping[str, Any] = field(default_factory=dict)
+    jpeg: bytes | None = field(default=None, repr=False)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """The outcome that happened at a node, and who said so."""
+
+    label: str
+    source: str  # "click", "random", "scripted", "expected", "console", "camera", "voice"
+    confidence: float | None = None
+    text: str = ""
+    evidence: Evidence | None = None
+    surprise: Surprise | None = None  # what happened fits no outcome: plan again
+    # sense(humanAttachingWhere): the free slot the human really used, when it is
+    # another than the branch `label` names (the executor maps one onto the other)
+    slot: str | None = None
+
+
+class OutcomeSource(Protocol):
+    def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
+        """The outcome at `node` (one of `options`), or None when there is no answer."""
+        ...
+
+
+class OutcomeError(Exception):
+    """A source answered with something that is not an outcome of the node."""
+
+
+Result = Literal["goal", "aborted", "interrupted", "dead-end"]
+RESULTS: tuple[Result, ...] = ("goal", "aborted", "interrupted", "dead-end")
+INTERRUPTED = "interrupted"  # the kind of the last event of an interrupted walk
+
+
+@dataclass(frozen=True)
+class ExecutionEvent:
+    """One step of an execution: the node run and how it turned out.
+
+    `kind` is the node's kind (actuation, sensing, communication, goal);
+    `outcome` is the branch taken (None after a deterministic node); `text`
+    is what the robot said, or the outcome in words. `motion` (actuation
+    only) is the node's `{arm, joints, path}`; it is not stored, the plan has it
+    (a re-targeted one is, in the evidence).
+    An interrupted walk ends with an event of kind `interrupted` at the node it
+    stood at, saying why (it is not a step of the plan).
+    `evidence` is what decided the answer (a camera frame, the words heard),
+    stored beside the event.
+    """
+
+    seq: int
+    time: float  # seconds since the epoch
+    node: str
+    action: str | None
+    kind: str
+    outcome: str | None = None
+    source: str | None = None
+    confidence: float | None = None
+    text: str | None = None
+    motion: Motion | None = field(default=None, compare=False, repr=False)
+    evidence: Evidence | None = field(default=None, compare=False, repr=False)
+    plan: Plan | None = field(default=None, compare=False, repr=False)  # a repair's new plan
+
+
+def describe(action: Action | None, label: str | None) -> str:
+    """Words for the outcome `label` of `action`, for buttons and logs."""
+    if label is None:
+        return "done"
+    if action is None:
+        return label
+    match action:
+        case SenseHumanHolding():
+            return {"yes": "Human holds a part", "no": "Human's hands are free"}.get(label, label)
+        case SenseHumanHoldingWhichPart():
+            return f"Human holds {label}"
+        case SenseHumanUnholding(part):
+            words = {"yes": f"Human puts {part} down", "no": f"Human keeps holding {part}"}
+            return words.get(label, label)
+        case SenseHumanAttachingWhere(part, onto):
+            return f"Human attaches {part} to {onto} at {label}"
+        case SenseShapeOf(part) | SenseLengthOf(part):
+            return f"{part} is {label}"
+    if action.name in QUESTIONS and label in ("yes", "no"):
+        return f"Human says {label}"
+    return f"{action}: {label}"
+
+
+@dataclass(frozen=True)
+class Repair:
+    """The plan to go on with, from `observed`; `words` is what the robot says."""
+
+    plan: Plan
+    observed: State
+    words: str
+    seconds: float
+
+
+class RepairFailed(Exception):
+    """No plan from the observed state; one line saying why."""

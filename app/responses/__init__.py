@@ -1,0 +1,1 @@
+"""What answers an execution, built from a --responses spec (sources and simulators)."""

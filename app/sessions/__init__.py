@@ -1,0 +1,1 @@
+"""Sessions on disk: the store, its database, evidence in words."""

@@ -1,0 +1,1 @@
+"""The simulated world and human that the camera and the voice observe."""

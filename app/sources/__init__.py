@@ -1,0 +1,1 @@
+"""Outcome sources: clicks, scripts, random, the camera and the voice."""

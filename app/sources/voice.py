@@ -1,0 +1,326 @@
+"""Answers to the robot's questions by voice: speak, listen, recognise, decide.
+
+`VoiceSource` is the `OutcomeSource` for the yes/no questions (askHelp,
+offerHelp, confirmAttach). At such a node it speaks the node's sentence
+(`speech.synthesis.synthesize`), listens on an `AudioSource` (microphone, WAV
+files, or the simulated voice) and hands the audio to a closed-grammar
+`Recognizer`. A refused result (silence, low confidence, out of grammar,
+ambiguous) makes it ask once more; a second refusal is "no answer" (None), so
+a `FallbackSource` takes the answer from clicks (or, headless, from a random
+or expected choice). A misheard answer would send the plan down the wrong
+branch, so only what the recogniser accepted ever becomes an outcome.
+
+Every attempt is kept per node (`attempts`), with the words heard, the
+confidence and why it was refused, so a session can say whether an answer
+came from the voice or, after which refusals, from the fallback:
+`evidence(node_id)` is that record as the session stores it (words, confidence,
+meaning, tries, engine, and what the simulated human really said when one did).
+
+`SimulatedSpeaker` is the simulated human's mouth: told that the robot asked,
+it chooses an answer among the node's options (seeded random, or a script)
+and says one of the language's phrases for it through `SimulatedVoice`. It
+never answers the node itself; the recogniser decides what it said.
+"""
+
+from __future__ import annotations
+
+import random
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from app.execution.events import Evidence, Outcome
+from app.execution.narration import RobotVoice
+from planner.plan.model import PlanNode
+from planner.vocabulary import QUESTIONS
+from speech.languages import Language, language
+from speech.recognition import Heard, Recognizer
+from speech.sources import AudioSource, MicrophoneSource, SimulatedVoice
+from speech.synthesis import Engine
+
+ANSWERS = ("yes", "no")
+
+# Told (node_id, node, options) once the robot has spoken a question and
+# before it listens, on every attempt: how a simulated human knows when to speak.
+QuestionListener = Callable[[str, PlanNode, Sequence[str]], None]
+# What really was said at a node (a simulated human knows), for the evidence.
+TruthOf = Callable[[str], dict[str, object] | None]
+# Told each attempt as it is heard (the dashboard shows the last words).
+AttemptListener = Callable[["Attempt"], None]
+# Told True when listening starts and False when it ends (the listening indicator).
+ListeningListener = Callable[[bool], None]
+
+
+def is_question(node: PlanNode, options: Sequence[str]) -> bool:
+    """A yes/no question to the human: the only nodes a voice can answer."""
+    return (
+        node.action is not None
+        and node.action.name in QUESTIONS
+        and bool(options)
+        and set(options) <= set(ANSWERS)
+    )
+
+
+@dataclass(frozen=True)
+class Spoken:
+    """One sentence the robot said, and the engine that said it."""
+
+    node_id: str
+    text: str
+    engine: str
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """One ask-and-listen at a node: what was heard and what it was taken to mean."""
+
+    node_id: str
+    number: int  # 1 for the first ask, 2 for the second
+    words: tuple[str, ...]
+    confidence: float
+    meaning: str | None  # "yes"/"no" when accepted
+    reason: str | None  # why it was refused (None when accepted)
+    origin: str = ""  # where the audio came from ("microphone", a file, "simulated:...")
+
+    @property
+    def accepted(self) -> bool:
+        return self.meaning is not None
+
+    @property
+    def heard(self) -> str:
+        return " ".join(self.words)
+
+
+class VoiceSource:
+    """Yes/no answers heard through `audio` and a closed grammar for the language.
+
+    `recognizer` may be shared (the model is costly to load); without one a
+    `Recognizer` for `language_code` is made. `engine` is the speech engine
+    ("auto": gTTS when its service answers, else espeak-ng); `voice`, when
+    given, is the `RobotVoice` that speaks (shared with the narrator, so every
+    line reaches the same listeners). `tries` is how many times a question is
+    asked before giving up to the fallback.
+    """
+
+    name = "voice"
+
+    def __init__(
+        self,
+        language_code: str | Language,
+        audio: AudioSource,
+        recognizer: Recognizer | None = None,
+        engine: Engine = "auto",
+        cache_dir: Path | None = None,
+        listen_timeout_s: float = 5.0,
+        tries: int = 2,
+        on_question: QuestionListener | None = None,
+        voice: RobotVoice | None = None,
+        truth: TruthOf | None = None,
+        on_attempt: AttemptListener | None = None,
+        on_listening: ListeningListener | None = None,
+    ) -> None:
+        self.language = (
+            language_code if isinstance(language_code, Language) else language(language_code)
+        )
+        self.recognizer = recognizer if recognizer is not None else Recognizer(self.language)
+        if self.recognizer.language.code != self.language.code:
+            raise ValueError(
+                f"the recogniser hears {self.recognizer.language.code}, "
+                f"the questions are asked in {self.language.code}"
+            )
+        self.audio = audio
+        self.voice = voice if voice is not None else RobotVoice(self.language, engine, cache_dir)
+        self.listen_timeout_s = listen_timeout_s
+        self.tries = tries
+        self.on_question = on_question
+        self.truth = truth
+        self.on_attempt = on_attempt
+        self.on_listening = on_listening
+        self.spoken: list[Spoken] = []
+        self.attempts: dict[str, list[Attempt]] = {}
+        self.last_heard: Attempt | None = None
+        self._interrupted = threading.Event()
+
+    # -- speaking -------------------------------------------------------------
+
+    def speak(self, node_id: str, text: str) -> Spoken:
+        """Says `text` and records which engine said it ("none" if none could)."""
+        line = Spoken(node_id, text, self.voice.say(node_id, text).engine)
+        self.spoken.append(line)
+        return line
+
+    # -- answering ------------------------------------------------------------
+
+    def interrupt(self) -> None:
+        """The next (or current, between attempts) `choose` gives up at once."""
+        self._interrupted.set()
+
+    def choose(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Outcome | None:
+        if not is_question(node, options) or not node.say:
+            return None  # sensing and silent nodes are for other sources
+        records = self.attempts.setdefault(node_id, [])
+        for number in range(1, self.tries + 1):
+            if self._interrupted.is_set():
+                self._interrupted.clear()
+                return None
+            self.speak(node_id, node.say)
+            if self.on_question is not None:
+                self.on_question(node_id, node, options)
+            attempt = self._listen(node_id, number)
+            records.append(attempt)
+            self.last_heard = attempt
+            if self.on_attempt is not None:
+                self.on_attempt(attempt)
+            if attempt.meaning is not None and attempt.meaning in options:
+                return Outcome(
+                    attempt.meaning,
+                    self.name,
+                    attempt.confidence,
+                    text=f"heard '{attempt.heard}'",
+                    evidence=self.evidence(node_id),
+                )
+        return None  # refused every time: the fallback answers
+
+    def _listen(self, node_id: str, number: int) -> Attempt:
+        if self.on_listening is not None:
+            self.on_listening(True)
+        decoding = None
+        try:
+            if isinstance(self.audio, MicrophoneSource):
+                # Decoded while it is spoken: the answer comes right after the pause.
+                decoding = self.recognizer.start()
+                recording = self.audio.listen(self.listen_timeout_s, decoding.feed)
+            else:
+                recording = self.audio.listen(self.listen_timeout_s)
+        finally:
+            if self.on_listening is not None:
+                self.on_listening(False)
+        if recording is None:
+            # Nothing came within the timeout: the same refusal as a silent clip.
+            return Attempt(node_id, number, (), 0.0, None, "silence")
+        heard: Heard = (
+            decoding.finish()
+            if decoding is not None
+            else self.recognizer.recognize(recording.samples, recording.rate)
+        )
+        return Attempt(
+            node_id,
+            number,
+            heard.words,
+            heard.confidence,
+            heard.meaning,
+            heard.reason,
+            recording.origin,
+        )
+
+    # -- what happened ----------------------------------------------------------
+
+    def evidence(self, node_id: str) -> Evidence:
+        """What the session keeps of the voice at a question (after the last try)."""
+        tried = self.attempts.get(node_id, [])
+        last = tried[-1] if tried else None
+        spoken = [s for s in self.spoken if s.node_id == node_id]
+        detail: dict[str, object] = {
+            "answered_by": "voice" if last is not None and last.accepted else "fallback",
+            "heard": last.heard if last is not None else "",
+            "confidence": round(last.confidence, 3) if last is not None else 0.0,
+            "meaning": last.meaning if last is not None else None,
+            "tries": len(tried),
+            "attempts": [
+                {
+                    "heard": a.heard,
+                    "confidence": round(a.confidence, 3),
+                    "meaning": a.meaning,
+                    "reason": a.reason,
+                    "audio": a.origin,
+                }
+                for a in tried
+            ],  # fmt: skip
+            "engine": spoken[-1].engine if spoken else "none",
+            "recognizer": f"vosk ({self.language.code}, closed grammar)",
+        }
+        truth = self.truth(node_id) if self.truth is not None else None
+        if truth is not None:
+            detail["truth"] = truth
+        return Evidence(detail)
+
+    def answered_by_voice(self, node_id: str) -> bool:
+        return any(a.accepted for a in self.attempts.get(node_id, ()))
+
+    def summary(self, node_id: str) -> str:
+        """One line for a session log: how the question at `node_id` was answered."""
+        tried = self.attempts.get(node_id, [])
+        if not tried:
+            return "not asked by voice"
+        parts = [
+            f"heard '{a.heard}' ({a.meaning})" if a.accepted else f"refused '{a.heard}': {a.reason}"
+            for a in tried
+        ]
+        return "; ".join(parts)
+
+
+@dataclass(frozen=True)
+class Said:
+    """What the simulated human chose to answer at a node, and the words it used."""
+
+    node_id: str
+    label: str
+    phrase: str
+
+
+@dataclass
+class SimulatedSpeaker:
+    """The simulated human answering the robot's questions aloud.
+
+    Seeded: at a question it chooses among the node's yes/no options at
+    random, or takes the next label of `script` while it lasts, and says one
+    of the language's phrases for that answer (chosen at random) into
+    `voice`. Asked again at the same node, it keeps its answer and may word
+    it differently, as a person repeating themselves would. `choices` keeps
+    its answer per node, so agreement with what was recognised can be counted.
+    """
+
+    voice: SimulatedVoice
+    seed: int | None = None
+    script: Sequence[str] = ()
+    choices: dict[str, str] = field(default_factory=dict)
+    said: list[Said] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self._random = random.Random(self.seed)
+        self._script: Iterator[str] = iter(self.script)
+
+    def __call__(self, node_id: str, node: PlanNode, options: Sequence[str]) -> None:
+        self.hear(node_id, node, options)
+
+    def hear(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Said:
+        """The robot asked at `node_id`: choose (once per node) and say the answer."""
+        label = self.choices.get(node_id)
+        if label is None:
+            label = self._choose(options)
+            self.choices[node_id] = label
+        words = self.voice.language.yes_words if label == "yes" else self.voice.language.no_words
+        phrase = self._random.choice(words)
+        self.voice.say(phrase)
+        said = Said(node_id, label, phrase)
+        self.said.append(said)
+        return said
+
+    def truth(self, node_id: str) -> dict[str, object] | None:
+        """What it really answered at `node_id` and the words it used, if it was asked."""
+        if node_id not in self.choices:
+            return None
+        words = [s.phrase for s in self.said if s.node_id == node_id]
+        return {"answer": self.choices[node_id], "said": words}
+
+    def _choose(self, options: Sequence[str]) -> str:
+        answers = [o for o in options if o in ANSWERS]
+        if not answers:
+            raise ValueError(f"no yes/no answer among {', '.join(options)}")
+        scripted = next(self._script, None)
+        if scripted is not None:
+            if scripted not in answers:
+                raise ValueError(f"scripted answer '{scripted}' is not one of {', '.join(answers)}")
+            return scripted
+        return self._random.choice(answers)

@@ -1,0 +1,1 @@
+"""The tandem-plan/1 plan: typed nodes, load/save, walks."""

@@ -1,0 +1,1 @@
+"""Scenario files: sections, cross-field rules, the model, loading, the paper's benches."""

@@ -1,0 +1,1 @@
+"""What the robot says: phrases, and the conversation around a task plan."""
