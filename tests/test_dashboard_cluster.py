@@ -12,7 +12,8 @@ pytest.importorskip("playwright.sync_api")
 ray = pytest.importorskip("ray", reason="Ray is not installed: pip install 'tandem[cluster]'")
 from playwright.sync_api import Browser, Page  # noqa: E402
 
-from app.dashboard.server import RAY, Dashboard  # noqa: E402
+from app.dashboard.plan_panel import RAY  # noqa: E402
+from app.dashboard.server import Dashboard  # noqa: E402
 from planner.planning import plan_scenario  # noqa: E402
 from tests.plan_fixtures import ROOT, free_port, tandem_command  # noqa: E402
 from tests.test_dashboard import browser, field, open_page, wait_for  # noqa: E402, F401
@@ -57,7 +58,7 @@ def test_a_plan_solved_on_ray_actors_is_the_local_plan(page: Page, dashboard: Da
     assert field(page, "Ray address").is_disabled()  # type: ignore[attr-defined]
     field(page, "Solve on").click()  # type: ignore[attr-defined]
     page.get_by_role("option", name=RAY, exact=True).click()
-    wait_for(lambda: dashboard.solve_on.value == RAY, 10)
+    wait_for(lambda: dashboard.plan_panel.solve_on.value == RAY, 10)
     wait_for(lambda: not field(page, "Ray address").is_disabled(), 10)  # type: ignore[attr-defined]
     assert dashboard.cluster == "auto"
     message = _plan_from_the_page(page, dashboard)
@@ -78,12 +79,12 @@ def test_a_bad_address_fails_the_plan_in_one_line(page: Page, dashboard: Dashboa
     address = field(page, "Ray address")
     address.fill("localhost:6379")  # type: ignore[attr-defined]
     address.press("Enter")  # type: ignore[attr-defined]
-    wait_for(lambda: dashboard.ray_address.value == "localhost:6379", 10)
+    wait_for(lambda: dashboard.plan_panel.ray_address.value == "localhost:6379", 10)
     message = _plan_from_the_page(page, dashboard)
     assert dashboard.job is not None and dashboard.job.status.state == "failed"
     assert message == "no cluster: --cluster 'localhost:6379': expected auto or ray://HOST:PORT"
     page.get_by_text(message, exact=True).wait_for()
-    assert not dashboard.plan_button.disabled  # the page can plan again
+    assert not dashboard.plan_panel.plan_button.disabled  # the page can plan again
 
 
 def test_the_command_refuses_a_bad_address_before_it_starts() -> None:

@@ -116,7 +116,8 @@ def test_scenario_edits_validate_and_save(tmp_path: Path) -> None:
 
 
 def test_the_scenario_choice_names_what_is_loaded(tmp_path: Path) -> None:
-    from app.dashboard.server import OTHER_FILE, Dashboard
+    from app.dashboard.scenario_panel import OTHER_FILE
+    from app.dashboard.server import Dashboard
     from app.dashboard.stage import ScenarioChanged
     from tests.plan_fixtures import free_port
 
@@ -132,38 +133,70 @@ def test_the_scenario_choice_names_what_is_loaded(tmp_path: Path) -> None:
         "127.0.0.1", free_port(), str(shipped_declared), data_dir=str(tmp_path),
         load_models=False,
     )  # fmt: skip
+    panel = dashboard.scenario_panel
     try:
         # The command line's shipped file is shadowed: no choice names it.
-        assert dashboard.pick.value == OTHER_FILE
-        assert dashboard.pick.options[0] == OTHER_FILE
+        assert panel.pick.value == OTHER_FILE
+        assert panel.pick.options[0] == OTHER_FILE
         dashboard.open_named("paper/paper-03.toml")
-        assert dashboard.pick.value == "paper/paper-03.toml"
-        assert OTHER_FILE not in dashboard.pick.options
+        assert panel.pick.value == "paper/paper-03.toml"
+        assert OTHER_FILE not in panel.pick.options
         assert dashboard.loaded is not None and dashboard.loaded.source == "paper/paper-03.toml"
         # A choice in the page opens that scenario once.
         loads: list[str] = []
         dashboard.events.subscribe(ScenarioChanged, lambda e: loads.append(e.scenario.name))
-        dashboard.pick.value = "declared.toml"
+        panel.pick.value = "declared.toml"
         assert loads == ["paper-base-declared"]
         assert dashboard.loaded.source == "declared.toml"
         # A file that does not load leaves the choice on the scenario that stays.
         (mine / "broken.toml").write_text('name = "broken"\n')
-        dashboard.pick.options = dashboard.folders.names()
-        dashboard.pick.value = "broken.toml"
-        assert dashboard.error.content.startswith("**Error:** broken.toml")
-        assert dashboard.pick.value == "declared.toml" and loads == ["paper-base-declared"]
+        panel.pick.options = dashboard.folders.names()
+        panel.pick.value = "broken.toml"
+        assert panel.error.content.startswith("**Error:** broken.toml")
+        assert panel.pick.value == "declared.toml" and loads == ["paper-base-declared"]
         assert dashboard.folders.name_of(mine / "declared.toml") == "declared.toml"
         assert dashboard.folders.name_of(shipped_declared) is None
         assert dashboard.folders.name_of(outside) is None
         dashboard.open_scenario(ROOT / "static" / "scenarios" / "paper" / "paper-05.toml")
-        assert dashboard.pick.value == "paper/paper-05.toml"
+        assert panel.pick.value == "paper/paper-05.toml"
         dashboard.open_scenario(outside)  # in no scenario folder
-        assert dashboard.pick.value == OTHER_FILE
+        assert panel.pick.value == OTHER_FILE
         assert dashboard.loaded.source == str(outside)
         # Saving it offers it by its new name, and still shows it as the other file.
-        dashboard.save_name.value = "saved.toml"
-        dashboard._save()
-        assert "saved.toml" in dashboard.pick.options and dashboard.pick.value == OTHER_FILE
+        panel.save_name.value = "saved.toml"
+        panel.save()
+        assert "saved.toml" in panel.pick.options and panel.pick.value == OTHER_FILE
         assert dashboard.loaded.source == str(outside)
+    finally:
+        dashboard.close()
+
+
+def test_opening_a_scenario_is_no_edit_of_it(tmp_path: Path) -> None:
+    from app.dashboard.server import Dashboard
+    from app.dashboard.stage import ScenarioChanged
+    from tests.plan_fixtures import free_port
+
+    dashboard = Dashboard(
+        "127.0.0.1", free_port(), "default.toml", data_dir=str(tmp_path), load_models=False
+    )
+    panel = dashboard.scenario_panel
+    try:
+        # The fields show what was loaded; setting them is not an edit, so the
+        # scenario stays the file as written (what "Save as" writes).
+        assert dashboard.loaded is not None and dashboard.loaded.text == DEFAULT.read_text()
+        heard: list[tuple[str, bool]] = []
+        dashboard.events.subscribe(
+            ScenarioChanged, lambda e: heard.append((e.scenario.name, e.edited))
+        )
+        panel.safety.value = "strict"  # as a page does
+        assert heard == [("paper-base", True)]
+        assert dashboard.plan_panel.status.content == "Scenario changed: plan again."
+        # Opening another scenario sets "Safety" back to "normal": one change, the
+        # opening, with the new scenario's parts as its file says.
+        dashboard.open_named("declared.toml")
+        declared = ROOT / "static" / "scenarios" / "declared.toml"
+        assert heard == [("paper-base", True), ("paper-base-declared", False)]
+        assert dashboard.loaded.text == declared.read_text()
+        assert dashboard.plan_panel.status.content.startswith("Scenario **paper-base-declared**")
     finally:
         dashboard.close()

@@ -64,9 +64,10 @@ class BenchScene:
         self._static: list[viser.SceneNodeHandle] = []
         self.robot: ViserUrdf | None = None
         if load_models:
-            self._load_models(mesh_detail)
+            self.load_models(mesh_detail)
 
-    def _load_models(self, mesh_detail: float) -> None:
+    def load_models(self, mesh_detail: float = DEFAULT_DETAIL) -> None:
+        """Baxter and the human (~5 MB of meshes for every page that connects)."""
         scene = self.server.scene
         scene.add_frame("/baxter", show_axes=False)
         baxter = yourdfpy.URDF.load(str(baxter_urdf()))

@@ -1,18 +1,23 @@
 """How the dashboard's panels are composed: a narrow stage and typed events.
 
-The pattern, for every panel (execution, review, live camera, and the speech
-panel to come):
+The pattern, for every panel (scenario, plan, selected node, view, execution,
+review, live camera, speech):
 
-- The `Dashboard` (server.py) owns the viser server, the bench scene and the
-  plan tree. A panel receives the GUI API to build its controls in, the
-  `Stage` it may drive, and the `Events` bus; never the dashboard itself.
-- `Stage` is all a panel may do to what is on screen: show a plan, go to a
-  node, show the world at a node, move the arms, read the current plan and
-  scenario.
+- `server.py` only composes: it creates the viser server, the `Screen`
+  (screen.py: the bench scene, the plan tree, the plan shown and the selected
+  node), the `Events` bus and the panels. A panel receives the GUI API to build
+  its controls in, the `Stage` it may drive, and the `Events` bus; never the
+  dashboard, the server or another panel.
+- `Stage` is all a panel may do to what is on screen: show a scenario's bench,
+  show a plan (complete or growing), select a node or go to it, fold a branch,
+  show the world at a node, move the arms, read the current plan, scenario and
+  where the tree is drawn.
 - Panels tell each other what happened only through `Events`: typed,
   documented messages (as viser's own messages are), delivered synchronously
   to the subscribers in the order they subscribed. No panel changes another
   panel's state, and no panel polls: sources call back when something changes.
+- A panel's own rules (what a choice shows, what a line says, when a button is
+  off) are plain functions or small classes beside it, tested without viser.
 - Every panel has `close()`; the dashboard closes them all when it stops.
 """
 
@@ -24,7 +29,7 @@ from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
 from app.execution.events import ExecutionEvent, OutcomeSource
-from planner.plan.model import Plan
+from planner.plan.model import Plan, PlanNode
 from planner.scenario.model import Scenario
 
 
@@ -59,6 +64,43 @@ class Stage(Protocol):
         """Move the drawn arms (a frame of a played motion)."""
         ...
 
+    def select(self, node_id: str, *, show_world: bool = True) -> None:
+        """Select a node as the tree shows it (a node in a folded branch stays hidden)."""
+        ...
+
+    def toggle(self, node_id: str) -> None:
+        """Fold the branch below a node in the tree, or unfold it."""
+        ...
+
+    def show_scenario(self, scenario: Scenario) -> None:
+        """Draw another bench (a scenario opened or edited); the shown plan, made
+        for the scenario before, is dropped."""
+        ...
+
+    def show_growing(self, plan: Plan) -> None:
+        """Draw the part of a plan planned so far (`plan.partial`), selecting nothing."""
+        ...
+
+    def drop_plan(self) -> None:
+        """No plan is shown any more (planning again): nobody may execute it."""
+        ...
+
+    def tree_frame(self) -> TreeFrame | None:
+        """Where the plan tree is drawn; None before any plan."""
+        ...
+
+
+@dataclass(frozen=True)
+class TreeFrame:
+    """Where the drawn plan tree stands in the scene, in metres: the x of its
+    wall, the (y, z) of its middle, its width and height, and the selected node
+    (None when it is not drawn: no selection, or in a folded branch)."""
+
+    wall_x: float
+    middle: tuple[float, float]
+    size: tuple[float, float]
+    selected: tuple[float, float, float] | None
+
 
 # -- messages -------------------------------------------------------------------
 
@@ -73,10 +115,28 @@ class PlanChanged:
 
 @dataclass(frozen=True)
 class ScenarioChanged:
-    """Another scenario was opened, or the open one was edited: other parts, another
-    bench (`scenario`)."""
+    """Another scenario was opened, or the open one was edited (`edited`): other
+    parts, another bench (`scenario`)."""
 
     scenario: Scenario
+    edited: bool = False
+
+
+@dataclass(frozen=True)
+class Planned:
+    """Planning in the page finished with `plan`, which is shown now."""
+
+    plan: Plan
+
+
+@dataclass(frozen=True)
+class NodeSelected:
+    """`node_id` (`node` of the shown plan) was selected; `parent` is the node above
+    it in the tree (None at the root)."""
+
+    node_id: str
+    node: PlanNode
+    parent: str | None
 
 
 @dataclass(frozen=True)
@@ -115,9 +175,24 @@ class CameraChanged:
     camera: CameraAnswers | None
 
 
-Message = PlanChanged | ScenarioChanged | ExecutionStarted | ExecutionFinished | CameraChanged
+Message = (
+    PlanChanged
+    | ScenarioChanged
+    | Planned
+    | NodeSelected
+    | ExecutionStarted
+    | ExecutionFinished
+    | CameraChanged
+)
 M = TypeVar(
-    "M", PlanChanged, ScenarioChanged, ExecutionStarted, ExecutionFinished, CameraChanged
+    "M",
+    PlanChanged,
+    ScenarioChanged,
+    Planned,
+    NodeSelected,
+    ExecutionStarted,
+    ExecutionFinished,
+    CameraChanged,
 )
 
 

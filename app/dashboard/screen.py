@@ -1,0 +1,120 @@
+"""What every page shows in 3D: the bench, the plan tree, the plan and the selected node.
+
+The `Screen` is the panels' `Stage` (stage.py). Planning, executions, reviews
+and clicks reach it from different threads, so one lock keeps the plan, the
+tree and the selection in step; selecting a node is announced on `Events`
+(`NodeSelected`) and showing or dropping a complete plan too (`PlanChanged`).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Mapping
+
+import viser
+
+from app.dashboard.bench_scene import BenchScene
+from app.dashboard.stage import Events, NodeSelected, PlanChanged, TreeFrame
+from app.dashboard.tree_view import WALL_X, TreeView
+from app.execution.world import world_at
+from planner.plan.model import Plan
+from planner.scenario.model import Scenario
+
+
+class Screen:
+    """The stage of the dashboard; the bench's models are loaded apart
+    (`bench.load_models`), after the panels, so a new page can be used first."""
+
+    def __init__(self, server: viser.ViserServer, events: Events) -> None:
+        self.events = events
+        self.bench = BenchScene(server, load_models=False)
+        self.tree = TreeView(server, self.select)
+        self.plan: Plan | None = None
+        self.scenario: Scenario | None = None
+        self.selected: str | None = None
+        self.current_arms: dict[str, list[float]] = {}
+        # Reentrant: a `NodeSelected` subscriber may drive the stage again.
+        self._lock = threading.RLock()
+
+    def current_plan(self) -> Plan | None:
+        return self.plan
+
+    def current_scenario(self) -> Scenario | None:
+        return self.scenario
+
+    def show_scenario(self, scenario: Scenario) -> None:
+        with self._lock:
+            self.scenario = scenario
+            self.bench.load(scenario)
+        self.drop_plan()
+
+    def drop_plan(self) -> None:
+        self.plan = None
+        self.events.publish(PlanChanged(None))
+
+    def show_growing(self, plan: Plan) -> None:
+        with self._lock:
+            self.plan = plan
+            self.tree.show(plan)
+
+    def show_plan(self, plan: Plan) -> None:
+        """A complete plan (planned here or stored with a session) in the tree and panels."""
+        with self._lock:
+            self.plan = plan
+            self.tree.show(plan)
+        self.select(plan.root)
+        self.events.publish(PlanChanged(plan))
+
+    def select(self, node_id: str, *, show_world: bool = True) -> None:
+        """Show a node: its details, and the bench as the node leaves it (a node
+        hidden in a collapsed branch stays hidden: `go_to` opens it)."""
+        with self._lock:
+            plan, tree = self.plan, self.tree.tree
+            if plan is None or tree is None or node_id not in plan.nodes:
+                return
+            self.selected = node_id
+            lineage = tree.lineage(node_id)
+            self.tree.highlight(node_id)
+            if show_world:
+                self._show_world(plan, lineage)
+            parent = lineage[-2] if len(lineage) > 1 else None
+            self.events.publish(NodeSelected(node_id, plan.nodes[node_id], parent))
+
+    def go_to(self, node_id: str, *, show_world: bool = True) -> None:
+        """Open every collapsed ancestor of `node_id`, then select it."""
+        if self.tree.tree is not None and node_id in self.tree.tree.depth:
+            self.tree.expand_to(node_id)
+        self.select(node_id, show_world=show_world)
+
+    def toggle(self, node_id: str) -> None:
+        self.tree.toggle(node_id)
+        self.tree.highlight(node_id)
+
+    def show_world(self, node_id: str) -> None:
+        """The bench as `node_id` leaves it (after an arm's motion has been played)."""
+        with self._lock:
+            if self.plan is not None and self.tree.tree is not None:
+                self._show_world(self.plan, self.tree.tree.lineage(node_id))
+
+    def _show_world(self, plan: Plan, lineage: list[str]) -> None:
+        world = world_at(
+            plan.nodes, lineage, self.bench.boxes, human_edge_x=self.bench.human_edge_x
+        )
+        self.bench.show(world)
+        self.current_arms = world.arms
+
+    def arms(self) -> dict[str, list[float]]:
+        return dict(self.current_arms)
+
+    def show_arms(self, arms: Mapping[str, list[float]]) -> None:
+        self.bench.show_arms(dict(arms))
+
+    def tree_frame(self) -> TreeFrame | None:
+        with self._lock:
+            if self.tree.current is None:
+                return None
+            y, z, width, height = self.tree.centre()
+            selected, where = self.selected, None
+            if selected is not None and selected in self.tree.current.positions:
+                where = self.tree.world(selected)
+            return TreeFrame(WALL_X, (y, z), (width, height), where)
