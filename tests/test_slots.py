@@ -23,14 +23,8 @@ from planner.feasibility.checks import BenchChecks
 from planner.feasibility.grasp_ik import POS_TOL
 from planner.feasibility.reach import World
 from planner.feasibility.scene import Site, site_of
-from planner.feasibility.slot_map import (
-    ROBOT_SLOT,
-    SLOTS,
-    SlotError,
-    SlotMap,
-    connection_points,
-)
-from planner.plan.model import Plan
+from planner.feasibility.slot_map import SlotError, SlotMap, connection_points
+from planner.plan.model import ROBOT_SLOT, SLOTS, Plan, PlanFormatError, PlanNode, RobotSlot
 from planner.scenario.loading import load_scenario
 from planner.scenario.model import Scenario
 from planner.vocabulary import Attach, Hands, SenseHumanAttachingWhere
@@ -273,16 +267,15 @@ def test_the_robot_attaches_at_a_free_slot_it_reaches_when_the_named_one_is_out_
 
     path = SCENARIOS / "default.toml"  # the left arm reaches only the top's c2
     scenario, plan = load_scenario(path), plan_of(path)
-    labels, node_id = _path_to(plan, lambda n: ROBOT_SLOT in (plan.nodes[n].model_extra or {}))
+    labels, node_id = _path_to(plan, lambda n: plan.nodes[n].robot_slot is not None)
     node = plan.nodes[node_id]
-    action, extra = node.action, node.model_extra or {}
-    assert isinstance(action, Attach) and node.motion is not None
-    chosen = extra[ROBOT_SLOT]
-    assert chosen["branch"] == action.slot and chosen["real"] != action.slot
-    assert extra[SLOTS] == {"top": {action.slot: chosen["real"], chosen["real"]: action.slot}}
+    action, chosen = node.action, node.robot_slot
+    assert isinstance(action, Attach) and node.motion is not None and chosen is not None
+    assert chosen.onto == "top" and chosen.branch == action.slot and chosen.real != action.slot
+    assert node.slots == {"top": {action.slot: chosen.real, chosen.real: action.slot}}
     with World(scenario) as world:
         end = world.endpoint(action.arm, node.motion.path[-1])
-        assert math.dist(end, world.site_target(Site("top", chosen["real"]))) <= POS_TOL
+        assert math.dist(end, world.site_target(Site("top", chosen.real))) <= POS_TOL
     # The plan's motions are where its slot maps say, and its branches continuous.
     assert slot_problems(plan.to_json(), scenario) == []
     assert audit(plan.to_json()) == []
@@ -296,6 +289,30 @@ def test_the_robot_attaches_at_a_free_slot_it_reaches_when_the_named_one_is_out_
     assert not any(e.evidence and "retargeted" in e.evidence.detail for e in events)
 
 
+def test_a_nodes_slot_map_and_robot_slot_are_typed_and_saved_only_when_set() -> None:
+    doc: dict[str, Any] = {
+        "kind": "actuation",
+        "action": "attach(left,top,c1)",
+        "state": ["holding(left,leg1)"],
+        "children": [{"outcome": None, "node": "n1"}],
+        SLOTS: {"top": {"c1": "c2", "c2": "c1"}},
+        ROBOT_SLOT: {"onto": "top", "branch": "c1", "real": "c2", "why": "left cannot reach c1"},
+    }
+    node = PlanNode.model_validate(doc)  # as files written before the fields were typed
+    assert node.slots == {"top": {"c1": "c2", "c2": "c1"}}
+    assert node.robot_slot == RobotSlot(
+        onto="top", branch="c1", real="c2", why="left cannot reach c1"
+    )
+    assert node.model_extra == {}
+    assert node.to_json() == doc
+    assert list(node.to_json()) == list(doc)  # in the same order: files are unchanged
+    plain = {k: v for k, v in doc.items() if k not in (SLOTS, ROBOT_SLOT)}
+    assert PlanNode.model_validate(plain).to_json() == plain
+    assert {SLOTS, ROBOT_SLOT} <= set(PlanNode.model_fields)  # the audit's names are the model's
+    broken = plan_of(SMALL).to_json()
+    next(iter(broken["nodes"].values()))[ROBOT_SLOT] = {"onto": "top"}
+    with pytest.raises(PlanFormatError, match="robot_slot"):
+        Plan.from_json(broken)
 
 
 def test_audit_flags_a_slot_map_that_is_not_one_to_one() -> None:
@@ -347,5 +364,5 @@ def test_without_a_motion_planner_the_executor_takes_the_plans_slot_choices() ->
     executor = Executor(plan, ExpectedSource())
     assert executor.run() == "goal"
     # The plan's own choice (leg1 at the real c2) is followed: no motion needs re-targeting.
-    assert executor.slots.to_json() == {"top": {"c1": "c2", "c2": "c1"}}
+    assert executor.slots.world.to_json() == {"top": {"c1": "c2", "c2": "c1"}}
     assert all(e.evidence is None for e in executor.events if e.kind == "actuation")

@@ -23,7 +23,7 @@ if TYPE_CHECKING:  # pybullet and OMPL load only when a motion is re-targeted
 
 
 class MotionRetargeter:
-    """`app.execution.walker.Retarget` with the cached checks of `scenario`'s bench."""
+    """`app.execution.slots.Retarget` with the cached checks of `scenario`'s bench."""
 
     def __init__(self, scenario: Scenario, cache_dir: Path | str | None = None) -> None:
         self.scenario = scenario

@@ -12,13 +12,9 @@ question is asked): it speaks the sentence and returns what to keep of that
 synchronously (`run()`) or in its own thread (`start()`), and can be paused,
 single-stepped, resumed and aborted from any thread.
 
-Slots follow the world (planner.feasibility.slot_map): outcomes speak the plan's
-names, and the executor keeps a slot map from those names to the world's points.
-When the human attaches at another free slot than the branch names (an outcome
-with a `slot`), or the robot's arm cannot reach the one its attach names, the
-executor keeps to the branch and updates the map; a motion whose node assumes
-another map (its `slots`) goes to `retarget` (the motion planner), so the event
-carries the motion the robot really makes, and its evidence keeps it.
+Slots follow the world: what the human's and the robot's slot choices change
+(the slot map, re-targeted motions, a surprise where the plan counts on a point)
+is `app.execution.slots`, which the walk asks once per node.
 """
 
 from __future__ import annotations
@@ -26,8 +22,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import replace
-from typing import Protocol
+from typing import NamedTuple
 
 from app.execution.events import (
     INTERRUPTED,
@@ -42,34 +37,17 @@ from app.execution.events import (
     Result,
     describe,
 )
+from app.execution.slots import Retarget, Slots
 from app.execution.surprises import Surprise, SurpriseError
-from planner.feasibility.scene import Site
-from planner.feasibility.slot_map import ROBOT_SLOT, SLOTS, SlotError, SlotMap, robot_choice
 from planner.plan.model import Motion, Plan, PlanNode
-from planner.vocabulary import Action, Hands, SenseHumanAttachingWhere
+
+__all__ = ["INTERRUPTED", "Executor", "Listener", "Narrator", "Repairing", "Retarget", "merged"]
 
 Listener = Callable[[ExecutionEvent], None]
 # Plans again after a surprise at a node: the repair, and the new plan's hash.
 Repairing = Callable[[PlanNode, Surprise], tuple[Repair, str]]
 # Speaks a communication node's sentence; what it returns is kept with the event.
 Narrator = Callable[[str, PlanNode], Evidence | None]
-
-
-class Retarget(Protocol):
-    """The motion planner behind re-targeting (app.execution.retargeting.MotionRetargeter)."""
-
-    def motion(
-        self, action: Action, state: list[str], real: Action, real_state: list[str]
-    ) -> Motion | None:
-        """The motion of `real` in `real_state` (the branch's `action` in `state`, at the
-        world's slots); None when the branch's stored motion goes there already."""
-        ...
-
-    def reaches(self, arm: str, site: Site) -> bool:
-        """Can `arm` work at `site`?"""
-        ...
-
-    def close(self) -> None: ...
 
 
 def merged(first: Evidence | None, second: Evidence | None) -> Evidence | None:
@@ -81,6 +59,14 @@ def merged(first: Evidence | None, second: Evidence | None) -> Evidence | None:
 
 class _Aborted(Exception):
     pass
+
+
+class _Next(NamedTuple):
+    """Where the walk goes after a node; `stepped` False when no step of the plan was
+    taken (a surprise: the repaired plan's root, or the same node asked again)."""
+
+    node: str
+    stepped: bool = True
 
 
 class Executor:
@@ -103,8 +89,7 @@ class Executor:
         retarget: Retarget | None = None,
     ) -> None:
         self.plan = plan
-        self.retarget = retarget
-        self.slots = SlotMap(plan.facts)
+        self.slots = Slots(plan, retarget, replans=repairing is not None)
         self.narrator = narrator
         self.repairing = repairing
         self.nodes = plan.nodes
@@ -210,67 +195,74 @@ class Executor:
             raise
         finally:
             self.current = None
-            if self.retarget is not None:
-                self.retarget.close()  # its check cache, in the thread that used it
+            self.slots.close()  # the motion planner's check cache, in the thread that used it
             self._done.set()
         return self.result
 
     def _walk(self) -> Result:
         node_id = self.plan.root
-        for _ in range(self.max_steps):
-            try:
+        try:
+            for _ in range(self.max_steps):
                 self._gate()
-            except _Aborted:
-                return "aborted"
-            node = self.nodes.get(node_id)
-            if node is None:
-                return "dead-end"
-            self.current = node_id
-            if node.kind == "goal":
-                self._emit(node_id, node, text="The table is assembled.")
-                return "goal"
-            children = node.children
-            if not children:
-                self._emit(node_id, node, text="no way on from here")
-                return "dead-end"
-            options = node.outcomes
-            spoken = None
-            if self.narrator is not None and node.kind == "communication" and node.say:
-                spoken = self.narrator(node_id, node)
-            if not options:
-                text = node.say if node.kind == "communication" else None
-                motion, moved = self._motion(node)
-                self._emit(node_id, node, text=text, motion=motion, evidence=merged(spoken, moved))
-                next_id = children[0].node
-            else:
-                try:
-                    outcome = self._ask(node_id, node, options)
-                except _Aborted:
-                    return "aborted"
-                outcome = self._point_surprise(node, outcome)
-                if outcome.surprise is not None:
-                    repaired = self._repair(node_id, node, outcome)
-                    if repaired is not None:
-                        node_id = repaired
-                    continue  # on the new plan's root, or the same node asked again
-                slot = self._follow_slot(node_id, node, outcome)
-                text = node.say if node.kind == "communication" else outcome.text
-                self._emit(
-                    node_id,
-                    node,
-                    outcome=outcome.label,
-                    source=outcome.source,
-                    confidence=outcome.confidence,
-                    text=text or describe(node.action, outcome.label),
-                    evidence=merged(merged(spoken, outcome.evidence), slot),
-                )
-                next_id = next(c.node for c in children if c.outcome == outcome.label)
-            try:
-                self._sleep(self.step_delay)
-            except _Aborted:
-                return "aborted"
-            node_id = next_id
+                node = self.nodes.get(node_id)
+                if node is None:
+                    return "dead-end"
+                self.current = node_id
+                after = self._step(node_id, node)
+                if isinstance(after, str):
+                    return after
+                if after.stepped:
+                    self._sleep(self.step_delay)
+                node_id = after.node
+        except _Aborted:
+            return "aborted"
         return "dead-end"
+
+    def _step(self, node_id: str, node: PlanNode) -> _Next | Result:
+        """Runs one node: where the walk goes next, or how it ended."""
+        if node.kind == "goal":
+            self._emit(node_id, node, text="The table is assembled.")
+            return "goal"
+        if not node.children:
+            self._emit(node_id, node, text="no way on from here")
+            return "dead-end"
+        spoken = None
+        if self.narrator is not None and node.kind == "communication" and node.say:
+            spoken = self.narrator(node_id, node)
+        if node.outcomes:
+            return self._branching_step(node_id, node, spoken)
+        return self._deterministic_step(node_id, node, spoken)
+
+    def _deterministic_step(self, node_id: str, node: PlanNode, spoken: Evidence | None) -> _Next:
+        """An action with one way on: the motion the robot makes (at the world's slots),
+        or what it says."""
+        text = node.say if node.kind == "communication" else None
+        step = self.slots.at(node_id, node, None)
+        self._emit(
+            node_id, node, text=text, motion=step.motion, evidence=merged(spoken, step.evidence)
+        )
+        return _Next(node.children[0].node)
+
+    def _branching_step(self, node_id: str, node: PlanNode, spoken: Evidence | None) -> _Next:
+        """A node with outcomes: the one the source says happened, followed (at the
+        world's slots); a surprise plans again."""
+        outcome = self._ask(node_id, node, node.outcomes)
+        step = self.slots.at(node_id, node, outcome)
+        surprise = step.surprise or outcome.surprise
+        if surprise is not None:
+            repaired = self._repair(node_id, node, outcome.source, surprise)
+            return _Next(node_id if repaired is None else repaired, stepped=False)
+        text = node.say if node.kind == "communication" else outcome.text
+        self._emit(
+            node_id,
+            node,
+            outcome=outcome.label,
+            source=outcome.source,
+            confidence=outcome.confidence,
+            text=text or describe(node.action, outcome.label),
+            evidence=merged(merged(spoken, outcome.evidence), step.evidence),
+        )
+        return _Next(next(c.node for c in node.children if c.outcome == outcome.label))
 
     def _gate(self) -> None:
         """Waits while paused (unless a single step is allowed); raises when aborted."""
@@ -317,101 +309,19 @@ class Executor:
                 )
             return outcome
 
-    def _follow_slot(self, node_id: str, node: PlanNode, outcome: Outcome) -> Evidence | None:
-        """Maps the branch's point onto the one the human used (both in the plan's names:
-        the map says where that is in the world), if they differ."""
-        if outcome.slot is None or outcome.slot == outcome.label:
-            return None
-        action = node.action
-        if not isinstance(action, SenseHumanAttachingWhere):
-            raise OutcomeError(f"{node.action} at {node_id} has no slot to observe")
-        if outcome.slot not in self.slot_choices(node):
-            raise OutcomeError(
-                f"{node.action} at {node_id}: {action.onto} has no free point {outcome.slot} "
-                f"(free: {', '.join(self.slot_choices(node))})"
-            )
-        real = self.slots.real(action.onto, outcome.slot)
-        try:
-            self.slots.follow(action.onto, outcome.label, real, node.state)
-        except SlotError as err:
-            raise OutcomeError(f"{node.action} at {node_id}: {err}") from None
-        slot = {"onto": action.onto, "branch": outcome.label, "used": outcome.slot, "real": real}
-        return Evidence({"slot": slot, "slots": self.slots.to_json()})
-
-    def _point_surprise(self, node: PlanNode, outcome: Outcome) -> Outcome:
-        """Where the plan puts parts by points (`points = "each"`, facts
-        `pointsChecked`), its later motions and arms count on the point the branch
-        names: the human's attach at another one is a surprise to plan again from,
-        not a name to map (only when this execution can plan again)."""
-        action = node.action
-        if (
-            self.repairing is None
-            or outcome.slot is None
-            or outcome.slot == outcome.label
-            or not isinstance(action, SenseHumanAttachingWhere)
-            or f"pointsChecked({action.onto})" not in self.plan.facts
-            or outcome.slot not in self.slot_choices(node)  # refused as before
-        ):
-            return outcome
-        real = self.slots.real(action.onto, outcome.slot)
-        return replace(outcome, surprise=Surprise("attach", (action.part, action.onto, real)))
+    # -- slots (app.execution.slots); a click source asks the executor
 
     def slot_choices(self, node: PlanNode) -> list[str]:
-        """Where the human can attach at a humanAttachingWhere node: the free points, in
-        the plan's names."""
-        action = node.action
-        if not isinstance(action, SenseHumanAttachingWhere):
-            return []
-        taken = {point for onto, point in Hands.of(node.state).attached.values()
-                 if onto == action.onto}  # fmt: skip
-        return [p for p in self.slots.points.get(action.onto, []) if p not in taken]
+        """Where the human can attach at a humanAttachingWhere node, in the plan's names."""
+        return self.slots.slot_choices(node)
 
     def slot_label(self, node: PlanNode, options: Sequence[str], point: str) -> str:
-        """The outcome label for attaching at `point`: the point itself if the node has
-        that outcome, else its first (and the executor follows `point`)."""
-        return point if point in options else options[0]
+        """The outcome label for attaching at `point` (the walk follows `point`)."""
+        return self.slots.slot_label(node, options, point)
 
-    def _motion(self, node: PlanNode) -> tuple[Motion | None, Evidence | None]:
-        """The node's stored motion where the world's slots are those it assumes; else
-        re-targeted to the world's, with evidence saying so and keeping the new motion."""
-        if node.motion is None or node.action is None:
-            return node.motion, None
-        extra = node.model_extra or {}
-        chosen = None
-        if self.retarget is not None:
-            chosen = robot_choice(self.slots, node.action, node.state, self.retarget.reaches)
-        elif isinstance(extra.get(ROBOT_SLOT), dict):
-            self._take_plans_choice(extra[ROBOT_SLOT], node.state)  # none to ask: the plan's
-        planned = SlotMap(self.plan.facts, extra.get(SLOTS))
-        if planned == self.slots:
-            return node.motion, None
-        assumed = planned.action(node.action), planned.state(node.state)
-        real = self.slots.action(node.action), self.slots.state(node.state)
-        if assumed[0] == real[0] and sorted(assumed[1]) == sorted(real[1]):
-            return node.motion, None
-        detail: dict[str, object] = {"slots": self.slots.to_json(), "real_action": str(real[0])}
-        if chosen:
-            detail["robot_slot"] = chosen
-        if self.retarget is None:
-            return node.motion, Evidence({**detail, "retargeted": "no motion planner"})
-        motion = self.retarget.motion(*assumed, *real)
-        if motion is None:
-            return node.motion, None
-        return motion, Evidence({**detail, "retargeted": motion.model_dump()})
-
-    def _take_plans_choice(self, choice: dict[str, str], state: list[str]) -> None:
-        """The robot's slot choice the plan made here, where the world lets it."""
-        onto, branch, real = choice.get("onto"), choice.get("branch"), choice.get("real")
-        if onto is None or branch is None or real is None:
-            return
-        if real in self.slots.free(onto, state) and real in self.slots.points.get(onto, []):
-            self.slots.follow(onto, branch, real, state)
-
-    def _repair(self, node_id: str, node: PlanNode, outcome: Outcome) -> str | None:
-        """Plans again from what was observed and switches to that plan; its root, or
+    def _repair(self, node_id: str, node: PlanNode, source: str, surprise: Surprise) -> str | None:
+        """Plans again from what `source` observed and switches to that plan; its root, or
         None (no repair possible: the node is asked again)."""
-        surprise = outcome.surprise
-        assert surprise is not None
         try:
             if self.repairing is None:
                 raise RepairFailed("this execution cannot plan again")
@@ -419,7 +329,7 @@ class Executor:
             # slot map goes on saying where they are in the world.
             repair, digest = self.repairing(node, surprise)
         except (RepairFailed, SurpriseError) as err:
-            self._emit(node_id, node, source=outcome.source, text=f"surprise ignored: {err}")
+            self._emit(node_id, node, source=source, text=f"surprise ignored: {err}")
             return None
         detail = {
             "surprise": str(surprise),
@@ -430,7 +340,7 @@ class Executor:
         event = ExecutionEvent(
             seq=len(self.events), time=time.time(), node=node_id,
             action=None if node.action is None else str(node.action), kind=REPAIR,
-            source=outcome.source, text=repair.words, evidence=Evidence(detail),
+            source=source, text=repair.words, evidence=Evidence(detail),
             plan=repair.plan,
         )  # fmt: skip
         self.events.append(event)
@@ -438,6 +348,7 @@ class Executor:
             listener(event)
         self.plan = repair.plan
         self.nodes = repair.plan.nodes
+        self.slots.switch_plan(repair.plan)
         return repair.plan.root
 
     def _emit_stop(self, node_id: str, reason: str) -> None:

@@ -15,7 +15,7 @@ from collections import deque
 from typing import Any
 
 from planner.feasibility.arms import JOINT_SUFFIXES
-from planner.feasibility.slot_map import ROBOT_SLOT, SLOTS
+from planner.plan.model import ROBOT_SLOT, SLOTS
 
 JOINTS = len(JOINT_SUFFIXES)
 MAX_STEP = 0.06  # radians between waypoints: paths are densified to 0.05

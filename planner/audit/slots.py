@@ -21,7 +21,8 @@ from typing import Any
 from planner.feasibility.grasp_ik import POS_TOL
 from planner.feasibility.reach import World
 from planner.feasibility.scene import site_of
-from planner.feasibility.slot_map import SLOTS, SlotMap
+from planner.feasibility.slot_map import SlotMap
+from planner.plan.model import SLOTS
 from planner.scenario.model import Scenario
 from planner.vocabulary import Attach, Hands, Hold, TermError, Unhold, parse_action
 

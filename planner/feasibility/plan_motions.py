@@ -12,7 +12,8 @@ and brought it over). So
 
 The point C is the one the node's slot map says C stands for: the identity, unless
 on the way from the root the robot took another free slot because its arm could
-not reach the one named (slot_map.robot_choice); such nodes keep the map (`slots`).
+not reach the one named (slot_map.robot_choice); such nodes keep the map (`slots`,
+and the node that chose its `robot_slot`).
 `retarget` answers for one action in one state: the executor asks it when the
 world's slots differ from those a node assumes (the human used another one).
 """
@@ -25,8 +26,8 @@ from collections.abc import Iterator
 from planner.feasibility.arms import joint_names
 from planner.feasibility.checks import BenchChecks, Place
 from planner.feasibility.scene import Site, site_of
-from planner.feasibility.slot_map import ROBOT_SLOT, SLOTS, SlotMap, robot_choice
-from planner.plan.model import Motion, Plan
+from planner.feasibility.slot_map import SlotMap, robot_choice
+from planner.plan.model import Motion, Plan, RobotSlot
 from planner.vocabulary import Action, Attach, Hands, Hold, Unhold
 
 DECIMALS = 4  # 0.1 mrad: far below what the arm can resolve; keeps plan files small
@@ -38,7 +39,7 @@ def add_motions(plan: Plan, checks: BenchChecks) -> int:
     """Adds its `motion` to every actuation node of `plan`; returns how many distinct
     motions the plan uses. A node whose motion assumes slots other than its names
     (the robot took another free slot on the way: planner.feasibility.slot_map) keeps that map
-    as `slots`."""
+    as `slots`, and the node that chose keeps its choice as `robot_slot`."""
     # The slots' reach checks go to the pool side by side, before the walk below asks
     # for them one by one.
     checks.prefetch_sites(
@@ -48,13 +49,8 @@ def add_motions(plan: Plan, checks: BenchChecks) -> int:
     nodes = []
     for node_id, node in plan.nodes.items():
         slots = maps.get(node_id) or SlotMap(plan.facts)
-        extra = node.model_extra if node.model_extra is not None else {}
-        extra.pop(SLOTS, None)
-        extra.pop(ROBOT_SLOT, None)
-        if not slots.identity:
-            setattr(node, SLOTS, slots.to_json())
-        if node_id in choices:
-            setattr(node, ROBOT_SLOT, choices[node_id])
+        node.slots = None if slots.identity else slots.to_json()
+        node.robot_slot = choices.get(node_id)
         if node.kind != "actuation" or node.action is None:
             continue
         action, state = slots.action(node.action), slots.state(node.state)
@@ -84,9 +80,7 @@ def slot_sites(action: Action | None, state: list[str]) -> Iterator[tuple[str, S
             yield arm, site_of(hands.attached, onto, point)
 
 
-def _slot_maps(
-    plan: Plan, checks: BenchChecks
-) -> tuple[dict[str, SlotMap], dict[str, dict[str, str]]]:
+def _slot_maps(plan: Plan, checks: BenchChecks) -> tuple[dict[str, SlotMap], dict[str, RobotSlot]]:
     """The slot map each node's motion assumes: the robot's choices on the way from the
     root (`robot_choice`), parents first, and the choices by node. A node reached with
     two maps keeps its first parent's (rare: five merges on paper-03 and -04 each);
@@ -100,7 +94,7 @@ def _slot_maps(
         for child in node.children:
             indegree[child.node] = indegree.get(child.node, 0) + 1
     maps = {plan.root: SlotMap(plan.facts)}
-    choices: dict[str, dict[str, str]] = {}
+    choices: dict[str, RobotSlot] = {}
     ready = deque([plan.root])
     while ready:
         node_id = ready.popleft()

@@ -7,8 +7,9 @@ one. It changes when the human attaches at another free point than the branch
 names (the two free points swap, so the branch's later `c2` is the real point
 that is still free), and when the robot's arm cannot reach the free point its
 attach names (`robot_choice`: it takes the first free one it reaches). The plan
-stores, per node, the map its motion assumes (`slots`); the executor keeps the
-world's and re-targets a motion where the two differ.
+stores, per node, the map its motion assumes (`PlanNode.slots`) and the robot's
+choice (`PlanNode.robot_slot`); the executor (app.execution.slots) keeps the
+world's map and re-targets a motion where the two differ.
 """
 
 from __future__ import annotations
@@ -16,10 +17,8 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Mapping
 
 from planner.feasibility.scene import Site, site_of
+from planner.plan.model import RobotSlot
 from planner.vocabulary import Action, Attach, Attached, Hands, parse_fluent
-
-SLOTS = "slots"  # the plan node field with the slot map its motion assumes
-ROBOT_SLOT = "robot_slot"  # the field of a node whose attach took another free slot
 
 
 class SlotError(ValueError):
@@ -135,7 +134,7 @@ Reaches = Callable[[str, Site], bool]  # can this arm work at this site?
 
 def robot_choice(
     slots: SlotMap, action: Action, state: list[str], reaches: Reaches
-) -> dict[str, str] | None:
+) -> RobotSlot | None:
     """The plan's slot means "whichever free slot": when the acting arm cannot reach the
     real point an attach names, the robot attaches at the first free one it reaches, and
     `slots` follows (what it chose, or None). Only onto a part attached to nothing, whose
@@ -152,6 +151,6 @@ def robot_choice(
     for point in slots.free(action.onto, state):
         if reaches(action.arm, site_of(hands.attached, action.onto, point)):
             slots.follow(action.onto, action.slot, point, state)
-            return {"onto": action.onto, "branch": action.slot, "real": point,
-                    "why": f"{action.arm} cannot reach {real}"}  # fmt: skip
+            why = f"{action.arm} cannot reach {real}"
+            return RobotSlot(onto=action.onto, branch=action.slot, real=point, why=why)
     return None

@@ -88,6 +88,25 @@ class Motion(BaseModel):
     path: list[list[float]]
 
 
+# The node fields about slots (planner.feasibility.slot_map), named once: the audit
+# reads them from the raw JSON.
+SLOTS = "slots"
+ROBOT_SLOT = "robot_slot"
+
+SlotNames = dict[str, dict[str, str]]  # part -> {plan name: real point}, names that differ
+
+
+class RobotSlot(BaseModel):
+    """The robot's own slot choice at an attach: its arm could not reach the real point
+    `branch` stood for on `onto`, so it took the free point `real` (`why` says why)."""
+
+    model_config = ConfigDict(extra="forbid")
+    onto: str
+    branch: str
+    real: str
+    why: str | None = None
+
+
 class PlanNode(BaseModel):
     model_config = ConfigDict(extra="allow")  # the format allows fields of later versions
     kind: NodeKind
@@ -98,6 +117,10 @@ class PlanNode(BaseModel):
     say: str | None = None  # communication: what the robot says
     why: str | None = None  # communication: the reason
     motion: Motion | None = None  # actuation: the arm path
+    # The slot map the motion assumes where it is not the identity (the robot took
+    # other free slots on the way from the root), and the choice made at this node.
+    slots: SlotNames | None = None
+    robot_slot: RobotSlot | None = None
 
     @property
     def outcomes(self) -> list[str]:
@@ -120,6 +143,10 @@ class PlanNode(BaseModel):
                 out[key] = value
         if self.motion is not None:
             out["motion"] = self.motion.model_dump()
+        if self.slots is not None:
+            out[SLOTS] = {part: dict(names) for part, names in self.slots.items()}
+        if self.robot_slot is not None:
+            out[ROBOT_SLOT] = self.robot_slot.model_dump(exclude_none=True)
         out.update(self.model_extra or {})
         return out
 
