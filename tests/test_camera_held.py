@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from app.execution.world import hands_x
+from app.responses.sim_camera import SIM_SIZE, sim_scene
 from app.sim.human import SimulatedWorld
-from app.sources.bench_layout import bench_layout, code_side, payloads, sim_scene
-from app.sources.camera_input import SIM_SIZE
+from app.sources.bench_layout import bench_layout, code_side, payloads
 from perception import paper_bench
 from perception.intrinsics import CameraIntrinsics
 from perception.pose import CameraPose

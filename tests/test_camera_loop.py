@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import collections
 import time
-from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
@@ -15,19 +14,24 @@ import pytest
 
 from app.execution.events import ExecutionEvent
 from app.execution.walker import Executor
-from app.sim.human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
-from app.sources.bench_layout import bench_layout, code_side, marker_ids, payloads, sim_scene
-from app.sources.camera import CameraSource, outcome_of
+from app.responses.sim_camera import sim_scene
+from app.sim.camera import StillSimulatedCamera
+from app.sim.human import SimulatedHuman, SimulatedWorld
+from app.sources.bench_layout import bench_layout, code_side, marker_ids, payloads
+from app.sources.camera import CameraSource
+from app.sources.camera_feed import PulledFeed
+from app.sources.camera_reading import outcome_of
 from app.sources.outcomes import FallbackSource, RandomSource
 from perception import paper_bench
 from perception.frames import Frame, VideoFileSource
 from perception.pipeline import BenchPerception
 from perception.sim import SimulatedCamera, write_video
 from planner.feasibility.scene import part_boxes
-from planner.plan.model import Plan, PlanNode
+from planner.plan.model import Plan
 from planner.scenario.loading import load_scenario
 from planner.scenario.model import Scenario
 from planner.vocabulary import SenseHumanAttachingWhere, SenseHumanHolding
+from tests.camera_runs import PutsItDownInstead
 from tests.plan_fixtures import SCENARIOS, default_plan
 
 SEEDS = range(20)
@@ -54,9 +58,8 @@ class Run:
         self.human = SimulatedHuman(plan, self.world, seed)
         self.frames: list[Frame] | None = [] if record else None
         self.intrinsics = self.camera.camera.intrinsics
-        self.source = CameraSource(
-            self.camera, BenchPerception(self.intrinsics, layout), self.human, record=self.frames
-        )
+        perception = BenchPerception(self.intrinsics, layout)
+        self.source = CameraSource(PulledFeed(self.camera, perception, self.frames), self.human)
         self.fallbacks: list[tuple[str, str]] = []
         self.executor = Executor(
             plan,
@@ -149,7 +152,8 @@ def test_a_recorded_video_gives_the_same_answers(
     assert write_video(live.frames, path, fps=live.camera.fps) == len(live.frames)
     # The replay has no human: only the frames say what happened.
     video = VideoFileSource(path)
-    replay_source = CameraSource(video, BenchPerception(live.intrinsics, bench_layout(scenario)))
+    perception = BenchPerception(live.intrinsics, bench_layout(scenario))
+    replay_source = CameraSource(PulledFeed(video, perception))
     replay = Executor(plan, FallbackSource(replay_source, RandomSource(seed)))
     try:
         assert replay.run() == "goal"
@@ -170,7 +174,7 @@ def test_an_estimate_that_fits_no_option_is_a_surprise_once(
     with SimulatedCamera(sim_scene(scenario), size=RENDER_SIZE) as camera:
         world = SimulatedWorld(part_boxes(scenario), layout, camera)
         world.human_take("leg2")
-        source = CameraSource(camera, BenchPerception(camera.intrinsics, layout))
+        source = CameraSource(PulledFeed(camera, BenchPerception(camera.intrinsics, layout)))
         node_id, node = next(
             (i, n) for i, n in plan.nodes.items() if isinstance(n.action, SenseHumanHolding)
         )
@@ -230,22 +234,6 @@ def test_tandem_execute_with_the_simulated_camera(tmp_path: Path) -> None:
     assert done.stderr.strip().splitlines()[-1] == "--responses camera:webcam:63: no camera at 63"
 
 
-class PutsItDownInstead(SimulatedHuman):
-    """A simulated human who, at the first question of where they attached a part,
-    puts that part back on the bench instead: what no branch of the plan expects."""
-
-    surprised_at: str | None = None
-
-    def act(
-        self, node_id: str, node: PlanNode, options: Sequence[str], wanted: str | None = None
-    ) -> str | None:
-        if self.surprised_at is None and isinstance(node.action, SenseHumanAttachingWhere):
-            self.surprised_at = node_id
-            self.world.human_put_down(node.action.part)
-            return None
-        return super().act(node_id, node, options, wanted)
-
-
 def test_what_the_camera_sees_against_the_plan_is_repaired(
     scenario: Scenario, plan: Plan, tmp_path: Path
 ) -> None:
@@ -258,7 +246,8 @@ def test_what_the_camera_sees_against_the_plan_is_repaired(
     world = SimulatedWorld(part_boxes(scenario), layout, camera)
     # Seed 2 says "no, yes, leg2" and reaches a question of where leg2 went (n68).
     human = PutsItDownInstead(plan, world, seed=2)
-    source = CameraSource(camera, BenchPerception(camera.camera.intrinsics, layout), human)
+    perception = BenchPerception(camera.camera.intrinsics, layout)
+    source = CameraSource(PulledFeed(camera, perception), human)
     with SessionStore(tmp_path) as store:
         executor = Executor(
             plan, FallbackSource(source, RandomSource(2)), [human.on_event],

@@ -11,8 +11,9 @@ from pathlib import Path
 import pytest
 
 from app.execution.events import ExecutionEvent
-from app.sources.bench_layout import bench_layout, sim_scene
-from app.sources.camera import belief_words, outcome_of
+from app.responses.sim_camera import sim_scene
+from app.sources.bench_layout import bench_layout
+from app.sources.camera_reading import belief_words, outcome_of
 from planner.plan.model import Plan
 from planner.scenario.loading import load_scenario
 from planner.scenario.model import Scenario
@@ -62,7 +63,7 @@ def test_the_camera_reads_every_look_at_a_shape_as_the_world_is(
         def note(event: ExecutionEvent, run: CameraRun = run, said: dict[str, str] = said) -> None:
             action = plan.nodes[event.node].action
             if event.kind == "sensing" and isinstance(action, SenseShapeOf):
-                reading = run.source.perception.outlines.readings.get(action.part)
+                reading = run.source.feed.perception.outlines.readings.get(action.part)
                 said[event.node] = "no look" if reading is None else reading.reason
 
         run.executor.listeners.append(note)

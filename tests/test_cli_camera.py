@@ -12,7 +12,7 @@ from pathlib import Path
 import cv2
 import pytest
 
-from app.sources.bench_layout import sim_scene
+from app.responses.sim_camera import sim_scene
 from perception.intrinsics import CameraIntrinsics
 from perception.sim import CameraPlacement, SimulatedCamera
 from planner.resources import find_scenario

@@ -1,7 +1,8 @@
 """The Live camera panel in a real browser (Debian's chromium driven by playwright):
 the annotated frame of the simulated camera, an execution whose sensing nodes the
 camera answers after each click has moved the simulated human, the deciding frame
-in the review, and a missing camera said in one line while clicks answer."""
+in the review, a surprise the live camera sees planned again from, and a missing
+camera said in one line while clicks answer."""
 
 from __future__ import annotations
 
@@ -18,7 +19,14 @@ from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
 
 from app.dashboard.camera_panel import VIEW_WIDTH  # noqa: E402
 from app.dashboard.server import Dashboard  # noqa: E402
+from app.execution.events import REPAIR  # noqa: E402
+from app.execution.walker import Executor  # noqa: E402
+from app.responses.camera import LiveAnswers  # noqa: E402
+from app.sim.human import SimulatedHuman, SimulatedWorld  # noqa: E402
 from perception.annotate import PART_COLOUR, REFERENCE_COLOUR  # noqa: E402
+from planner.plan.model import Plan  # noqa: E402
+from planner.vocabulary import SenseHumanAttachingWhere, parse_action  # noqa: E402
+from tests.camera_runs import PutsItDownInstead  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     ARTIFACTS,
     CHROMIUM,
@@ -92,16 +100,16 @@ def test_the_panel_shows_the_annotated_frame(page: Page, dashboard: Dashboard) -
     assert colour_pixels(annotated, PART_COLOUR) > 2000
     assert colour_pixels(annotated, REFERENCE_COLOUR) > 1000
     assert colour_pixels(annotated, (0, 0, 230)) > 100  # the bench's x axis
-    assert dashboard.execution.camera is live
+    answers = dashboard.execution.camera
+    assert isinstance(answers, LiveAnswers) and answers.live is live
 
 
-def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> None:
-    page.get_by_role("button", name="Plan", exact=True).click()
-    wait_for(plan_shown(dashboard), 120)
+def execute_clicking_first(page: Page, dashboard: Dashboard) -> Executor:
+    """Executes the shown plan from the page, clicking each question's first answer."""
     dashboard.execution.speed.value = 0.0
     wait_for(lambda: not dashboard.execution.start_button.disabled)
     page.get_by_role("button", name="Execute plan", exact=True).click()
-    wait_for(lambda: dashboard.execution.executor is not None)
+    wait_for(lambda: dashboard.execution.executor is not None and dashboard.execution.running)
     executor = dashboard.execution.executor
     assert executor is not None
     while not executor.done:
@@ -115,7 +123,14 @@ def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> No
             page.get_by_role("button", name=offer.words[0], exact=True).click(timeout=5000)
         except Exception:
             pass  # the buttons went while playwright looked at them: the loop looks again
-        wait_for(lambda o=offer, c=clicks: c.pending() != o or executor.done, 30)
+        wait_for(lambda o=offer, c=clicks: c.pending() != o or executor.done, 60)
+    return executor
+
+
+def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> None:
+    page.get_by_role("button", name="Plan", exact=True).click()
+    wait_for(plan_shown(dashboard), 120)
+    executor = execute_clicking_first(page, dashboard)
     assert executor.result == "goal", executor.events
     session_id = dashboard.execution.session_id
     assert session_id is not None
@@ -142,6 +157,49 @@ def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> No
     wait_for(lambda: 320 in image_widths(page), 30)
     page.get_by_text("answered by the camera:", exact=False).first.wait_for()
     shot(page, "camera-review")
+
+
+def test_a_surprise_the_live_camera_sees_is_repaired(page: Page, dashboard: Dashboard) -> None:
+    """The simulated human, at the first question of where a part was attached, puts
+    the part down instead: no branch expects that. The live camera (the code path of
+    a real webcam: its views, the same camera source) sees it, and the execution
+    plans again from what was seen; the store keeps the repair."""
+    panel = dashboard.camera_panel
+    humans: list[PutsItDownInstead] = []
+
+    def human(plan: Plan, world: SimulatedWorld) -> SimulatedHuman:
+        humans.append(PutsItDownInstead(plan, world, seed=0))
+        return humans[-1]
+
+    panel.simulated_human = human
+    try:
+        panel.kind.value = "simulated"
+        page.get_by_role("button", name="Start camera", exact=True).click()
+        wait_for(lambda: isinstance(dashboard.execution.camera, LiveAnswers)
+                 and dashboard.execution.camera.human is human, 30)  # fmt: skip
+        if dashboard.plan is None or dashboard.plan.partial:
+            page.get_by_role("button", name="Plan", exact=True).click()
+            wait_for(plan_shown(dashboard), 120)
+        executor = execute_clicking_first(page, dashboard)
+    finally:
+        panel.simulated_human = SimulatedHuman
+    assert executor.result == "goal", executor.events
+    (put_down,) = humans
+    assert put_down.surprised_at is not None, "the plan never asked where a part went"
+    session_id = dashboard.execution.session_id
+    assert session_id is not None
+    wait_for(lambda: dashboard.store.get(session_id).result == "goal")
+    events = dashboard.store.events(session_id, with_jpeg=True)
+    (repair,) = [e for e in events if e.kind == REPAIR]
+    assert repair.node == put_down.surprised_at and repair.source == "camera"
+    asked = parse_action(repair.action or "")
+    assert isinstance(asked, SenseHumanAttachingWhere)
+    assert repair.evidence is not None
+    assert repair.evidence.detail["surprise"] == f"putdown {asked.part}"
+    assert repair.text is not None and f"I see you put the {asked.part} down" in repair.text
+    # The camera answered on after the repair, on the new plan.
+    after = events[events.index(repair) + 1 :]
+    assert any(e.kind == "sensing" and e.source == "camera" for e in after), after
 
 
 def test_a_missing_camera_is_one_line_and_clicks_answer(

@@ -9,8 +9,8 @@ camera answering every sensing node, two ways:
   simulated world) to the camera's answer, so it includes the render of the
   changed bench, the frames until the tracker and the estimate settle, and the
   wait for each frame;
-- flat out: the headless `CameraSource` of `tandem execute`, reading frames as
-  fast as they come (rendering only when the world changed).
+- flat out: the headless feed of `tandem execute`, the same `CameraSource`
+  pulling frames as fast as they come (rendering only when the world changed).
 
 Prints medians, 90th percentiles and maxima per kind of sensing action, and how
 many answers agree with what the human did.
@@ -29,14 +29,14 @@ from pathlib import Path
 import cv2
 
 from app.execution.walker import Executor
-from app.sim.human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
-from app.sources.bench_layout import bench_layout, sim_scene
+from app.responses.sim_camera import SIM_SIZE, sim_camera
+from app.sim.human import SimulatedHuman, SimulatedWorld
+from app.sources.bench_layout import bench_layout
 from app.sources.camera import CameraSource
-from app.sources.camera_input import SIM_SIZE
-from app.sources.live_camera import LiveCamera, LiveCameraSource
+from app.sources.camera_feed import PulledFeed
+from app.sources.live_camera import LiveCamera, live_source
 from app.sources.outcomes import FallbackSource, RandomSource
 from perception.pipeline import BenchPerception
-from perception.sim import SimulatedCamera
 from planner.feasibility.scene import part_boxes
 from planner.plan.model import Plan
 from planner.planning import plan_scenario
@@ -54,13 +54,13 @@ def _kind(action: str | None) -> str:
 
 
 def live_run(scenario: Scenario, plan: Plan, seed: int, times: Times) -> tuple[int, int]:
-    camera = StillSimulatedCamera(SimulatedCamera(sim_scene(scenario), size=SIM_SIZE))
+    camera = sim_camera(scenario)
     live = LiveCamera(camera, camera.camera.intrinsics, scenario, name="sim", simulated=camera)
     live.start()
     try:
         world = SimulatedWorld(part_boxes(scenario), live.layout, live)
         human = SimulatedHuman(plan, world, seed)
-        source = LiveCameraSource(live, human)
+        source = live_source(live, human)
         executor = Executor(plan, FallbackSource(source, RandomSource(seed)), [human.on_event])
         executor.run()
     finally:
@@ -69,12 +69,13 @@ def live_run(scenario: Scenario, plan: Plan, seed: int, times: Times) -> tuple[i
 
 
 def flat_out_run(scenario: Scenario, plan: Plan, seed: int, times: Times) -> tuple[int, int]:
-    camera = StillSimulatedCamera(SimulatedCamera(sim_scene(scenario), size=SIM_SIZE))
+    camera = sim_camera(scenario)
     layout = bench_layout(scenario)
     try:
         world = SimulatedWorld(part_boxes(scenario), layout, camera)
         human = SimulatedHuman(plan, world, seed)
-        source = CameraSource(camera, BenchPerception(camera.camera.intrinsics, layout), human)
+        feed = PulledFeed(camera, BenchPerception(camera.camera.intrinsics, layout))
+        source = CameraSource(feed, human)
         executor = Executor(plan, FallbackSource(source, RandomSource(seed)), [human.on_event])
         executor.run()
     finally:

@@ -58,9 +58,10 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput(f"--frames {args.frames}: must be 1 or more")
     scenario = load_scenario(find_scenario(Path(args.scenario)))
     # Imported here: OpenCV (and pybullet for sim) only for the camera commands.
+    from app.responses.camera import open_camera
     from app.sources.bench_layout import bench_layout
-    from app.sources.camera import where_words
-    from app.sources.camera_input import CalibrationFileError, load_calibration, open_camera
+    from app.sources.camera_input import CalibrationFileError, load_calibration
+    from app.sources.camera_reading import where_words
     from perception.frames import SourceError
     from perception.pipeline import BenchPerception
 

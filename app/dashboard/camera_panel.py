@@ -4,9 +4,11 @@ A source (the simulated camera, a webcam, a video file or an image folder) runs
 in a `LiveCamera`; the panel shows its latest frame with each decoded code boxed
 and labelled and the bench axes drawn, the frame rate and perception's time per
 frame, and per part what the tracker believes. While a camera runs it is
-announced on `Events` (`CameraChanged`), so executions take their sensing
-answers from it; a camera that cannot be opened is said in one line and the
-clicks keep answering. See stage.py for the panel pattern.
+announced on `Events` (`CameraChanged`) as `LiveAnswers`, so executions take
+their sensing answers from it, surprises included (with the simulated camera,
+a simulated human first acts out each click); a camera that cannot be opened
+is said in one line and the clicks keep answering. See stage.py for the panel
+pattern.
 """
 
 from __future__ import annotations
@@ -23,9 +25,10 @@ import viser
 from app.dashboard.operator import Operator
 from app.dashboard.scenario_folders import RefusedName, find_recording
 from app.dashboard.stage import CameraChanged, Events, ScenarioChanged, Stage
-from app.sim.human import StillSimulatedCamera
-from app.sources.camera import belief_words
-from app.sources.camera_input import open_camera
+from app.responses.camera import HumanFactory, LiveAnswers, open_camera
+from app.sim.camera import StillSimulatedCamera
+from app.sim.human import SimulatedHuman
+from app.sources.camera_reading import belief_words
 from app.sources.live_camera import LiveCamera, LiveView
 from perception.annotate import annotate
 from perception.frames import SourceError
@@ -45,7 +48,11 @@ def source_spec(kind: str, where: str) -> str:
 
 
 class CameraPanel:
-    """`recordings`: the only folder whose videos and image folders a page may name."""
+    """`recordings`: the only folder whose videos and image folders a page may name.
+
+    `simulated_human` makes, for each execution with the simulated camera, the
+    simulated human who acts out the clicks before the camera looks.
+    """
 
     def __init__(
         self,
@@ -59,6 +66,7 @@ class CameraPanel:
         self.stage = stage
         self.events = events
         self.live: LiveCamera | None = None
+        self.simulated_human: HumanFactory = SimulatedHuman
         self.last_annotated: np.ndarray | None = None
         self._shown_at = 0.0
         self._lock = threading.Lock()
@@ -121,7 +129,7 @@ class CameraPanel:
         self.status.content = (
             f"Camera **{spec}** ({camera.origin} intrinsics): it answers the sensing nodes."
         )
-        self.events.publish(CameraChanged(live))
+        self.events.publish(CameraChanged(LiveAnswers(live, self.simulated_human)))
 
     def stop(self, why: str | None) -> None:
         with self._lock:

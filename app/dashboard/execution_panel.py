@@ -125,7 +125,8 @@ class ExecutionPanel:
         note = "dashboard"
         if self.camera is not None:
             # The camera answers sensing nodes; a click says what the simulated human
-            # does (the camera then sees it), and answers what the camera cannot.
+            # does (the camera then sees it), and answers what the camera cannot. What
+            # it sees that no branch expects is a surprise: the repairer plans again.
             camera, listeners = self.camera.for_execution(plan, clicks)
             source = FallbackSource(camera, source)
             note = f"dashboard, camera {self.camera.name}"

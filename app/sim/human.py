@@ -10,7 +10,10 @@ consistently with the plan, and does it in the world; it never answers a node:
 the camera has to see what it did. It also decides, seeded, what a part whose
 shape the scenario leaves open really is, and the camera draws it so: the
 camera has to see that too. As an executor listener it applies the robot's
-actions and complies with what the human agreed to at a question.
+actions and complies with what the human agreed to at a question. It is what a
+camera source lets act before it looks (`before_look`, the protocol
+app.sources.camera.BeforeLook), alone or, in the dashboard, as a `DirectedHuman`
+acting out the clicks.
 """
 
 from __future__ import annotations
@@ -19,11 +22,10 @@ import math
 import random
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
-from app.execution.events import REPAIR, ExecutionEvent
+from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource
 from app.execution.world import place_parts
-from perception.frames import Frame, Image
 from perception.layout import BenchLayout
 from planner.feasibility.scene import PartBox
 from planner.plan.model import Plan, PlanNode
@@ -47,9 +49,6 @@ from planner.vocabulary import (
     parse_fluent,
 )
 
-if TYPE_CHECKING:  # the camera's owner creates it; importing pybullet is its cost
-    from perception.sim import SimulatedCamera
-
 Vec3 = tuple[float, float, float]
 
 
@@ -59,48 +58,6 @@ class PartMover(Protocol):
     def move(self, part_id: str, position: Vec3, yaw: float | None = None) -> None: ...
 
     def reshape(self, part_id: str, profile: str) -> None: ...
-
-
-class StillSimulatedCamera:
-    """A clean `SimulatedCamera` that renders only when the world has changed.
-
-    Without degradation the renderer draws the same image for the same world, so
-    frames between moves repeat the last render (a new index and time each):
-    the chain still decodes every frame, at a fraction of the rendering time.
-    """
-
-    def __init__(self, camera: SimulatedCamera) -> None:
-        self.camera = camera
-        self._image: Image | None = None
-        self._index = 0
-        self.renders = 0
-
-    @property
-    def size(self) -> tuple[int, int]:
-        return self.camera.size
-
-    @property
-    def fps(self) -> float:
-        return self.camera.fps
-
-    def move(self, part_id: str, position: Vec3, yaw: float | None = None) -> None:
-        self.camera.move(part_id, position, yaw)
-        self._image = None
-
-    def reshape(self, part_id: str, profile: str) -> None:
-        self.camera.reshape(part_id, profile)
-        self._image = None
-
-    def read(self) -> Frame:
-        if self._image is None:
-            self._image = self.camera.render()
-            self.renders += 1
-        frame = Frame(self._image.copy(), self._index / self.fps, self._index)
-        self._index += 1
-        return frame
-
-    def close(self) -> None:
-        self.camera.close()
 
 
 class SimulatedWorld:
@@ -294,6 +251,16 @@ class SimulatedHuman:
         self.acts.append(HumanAct(node_id, str(node.action), label))
         return label
 
+    # --- before the camera looks (app.sources.camera.BeforeLook) --------------------
+    def before_look(self, node_id: str, node: PlanNode, options: Sequence[str]) -> bool:
+        """Acts out a seeded outcome at a sensing node; the camera then has to see it."""
+        self.act(node_id, node, options)
+        return True
+
+    def truth(self, node_id: str) -> str | None:
+        """What the human really did at `node_id`, if it acted there."""
+        return self.did.get(node_id)
+
     def _decide(self, node_id: str, node: PlanNode, options: Sequence[str]) -> str | None:
         w = self.world
         match node.action:
@@ -410,3 +377,29 @@ class SimulatedHuman:
         """(answers equal to what the human did, sensing answers) over `events`."""
         sensing = [e for e in events if e.kind == "sensing" and e.node in self.did]
         return sum(1 for e in sensing if e.outcome == self.did[e.node]), len(sensing)
+
+
+class DirectedHuman:
+    """A simulated human who acts out what another source chooses (the dashboard's
+    clicks): at a sensing node `intent` picks the outcome, `human` makes it true in
+    its world, and the camera has to see it (an app.sources.camera.BeforeLook)."""
+
+    def __init__(self, human: SimulatedHuman, intent: OutcomeSource) -> None:
+        self.human = human
+        self.intent = intent
+
+    def before_look(self, node_id: str, node: PlanNode, options: Sequence[str]) -> bool:
+        wanted = self.intent.choose(node_id, node, options)
+        if wanted is None:
+            return False  # no click (an abort): nothing happened to look at
+        self.human.act(node_id, node, options, wanted.label)
+        return True
+
+    def truth(self, node_id: str) -> str | None:
+        return self.human.truth(node_id)
+
+    def interrupt(self) -> None:
+        """Stops waiting for the intent (a click), as an abort does."""
+        interrupt = getattr(self.intent, "interrupt", None)
+        if callable(interrupt):
+            interrupt()

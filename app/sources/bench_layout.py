@@ -1,4 +1,4 @@
-"""A scenario as perception's inputs: the bench layout and the simulated scene.
+"""A scenario as perception's inputs: the bench layout.
 
 Perception knows nothing of scenario files; this module computes, from a planner
 `Scenario`, what `perception.paper_bench` writes by hand for the paper's bench:
@@ -7,14 +7,12 @@ the regions' extents, the bench's size and height, each part's box (from
 planner and the dashboard put them), its connection slots relative to its centre,
 where its code sits, the code's payload, and what a leg's or a foot's top face
 may look like (its shape options: the camera tells them apart when several).
+The simulated camera's scene of the same bench is drawn from these by
+app.responses.sim_camera (sources never import the simulators).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import TYPE_CHECKING
-
-from app.execution.world import hands_x
 from perception.codes_image import printed_side
 from perception.layout import BenchLayout, PartShape, Region
 from perception.markers import corner_references, encode_part
@@ -27,16 +25,6 @@ from planner.feasibility.scene import (
 )
 from planner.scenario.model import Scenario
 
-if TYPE_CHECKING:  # the simulated camera loads pybullet, which a layout never needs
-    from perception.sim import SimScene
-
-# Box colours by kind, as the paper bench draws them, so frames look alike.
-COLOURS = {
-    "top": (0.80, 0.72, 0.55),
-    "leg": (0.70, 0.80, 0.85),
-    "foot": (0.85, 0.70, 0.70),
-    "other": (0.75, 0.75, 0.70),
-}
 _CLEARANCE_M = 0.005  # between a code and the code of a part standing on a slot
 _CARD_GAP_M = 0.01  # between a face the camera reads and its code's card
 
@@ -163,48 +151,4 @@ def bench_layout(scenario: Scenario, marker_size_m: float | None = None) -> Benc
         references=corner_references(bench_x, bench_y, marker_size_m),
         marker_size_m=marker_size_m,
         lift_split_x=_lift_split_x(scenario),
-    )
-
-
-def sim_scene(
-    scenario: Scenario,
-    marker_size_m: float | None = None,
-    truth: Mapping[str, str] | None = None,
-) -> SimScene:
-    """The parts resting where the scenario puts them, each with its own code, a
-    leg or a foot drawn with its shape (`truth` for one the scenario leaves open,
-    else its first option; the simulated world may reshape it later), and the
-    human's hands past the bench's far edge, where the camera frames them."""
-    from perception.sim import SimPart, SimScene
-
-    if marker_size_m is None:
-        marker_size_m = scenario.camera.marker_size
-    bench_x, bench_y = bench_extent(scenario)
-    boxes = part_boxes(scenario)
-    shapes = part_shapes(scenario, marker_size_m)
-    texts = payloads(scenario)
-    kinds = {p.id: p.kind for p in scenario.parts}
-    faces = outlines(scenario)
-    truth = truth or {}
-    parts = tuple(
-        SimPart(
-            pid,
-            box.size,
-            (box.x, box.y, BENCH_TOP_Z + box.size[2] / 2),
-            texts[pid],
-            yaw=box.yaw,
-            colour=COLOURS.get(kinds[pid], COLOURS["other"]),
-            code_offset=shapes[pid].code_offset,
-            profile=truth.get(pid) or (faces.get(pid) or ("square",))[0],
-        )
-        for pid, box in boxes.items()
-    )
-    return SimScene(
-        parts=parts,
-        references=corner_references(bench_x, bench_y, marker_size_m),
-        bench_top_z=BENCH_TOP_Z,
-        bench_x=bench_x,
-        bench_y=bench_y,
-        marker_size_m=marker_size_m,
-        hands_x=hands_x(bench_x[1]),
     )

@@ -1,26 +1,30 @@
 """The camera as an outcome source: what it sees answers the sensing nodes.
 
-`CameraSource.choose` reads frames through `BenchPerception` until the world
-estimate has been stable for a few frames, then maps it onto one of the node's
-outcome labels (`outcome_of`). It has no answer (None, so the fallback answers)
-at a node that is not a sensing node, when the estimate does not settle before
-the timeout or the frames end, and when what it sees fits none of the options;
-`last_observation` says which, for the panel. A look at a part's shape
-(`sense(shapeOf(P))`) is answered by the outline perception reads on P's top
-face, once most of its recent looks agree. When the view shows that the
-person did what no outcome expects (took a part the plan did not count on, put
-the part down instead of attaching it, attached it to another part), the
-answer is a surprise: the executor plans again from what was seen (app.execution.repair).
-With a simulated human, the human acts first, and the camera then has to see
-what it did.
+`CameraSource.choose` looks at the views of a `ViewFeed` (app/sources/camera_feed.py:
+frames it pulls through `BenchPerception`, or a live camera's views) until the
+world estimate has been stable for a few fresh views, then maps it onto one of
+the node's outcome labels (app/sources/camera_reading.py). It is one logic for
+both feeds: a headless run and the dashboard's live camera decide alike, and a
+surprise (the person did what no outcome expects) reaches the executor, which
+plans again from what was seen (app.execution.repair), whichever feed saw it.
+
+It has no answer (None, so the fallback answers) at a node that is not a sensing
+node, when no stable view comes before the limits or the views end, and when what
+it sees fits none of the options and is no surprise; `last_observation` says
+which, for the panel. What happens before it looks is a `BeforeLook`: in a
+simulated run a simulated human acts out an outcome (app.sim implements it; a
+source never imports the simulators), and the camera then has to see what it did.
+Without one, a person acts in their own time: a view that fits nothing yet is
+watched on until one fits or the limits end the look.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import cv2
 import numpy as np
@@ -28,36 +32,30 @@ import numpy.typing as npt
 
 from app.execution.events import Evidence, Node, Outcome, describe
 from app.execution.surprises import Surprise
-from app.sim.human import SimulatedHuman
-from perception.frames import Frame, FrameSource
-from perception.pipeline import BenchPerception
-from perception.world import PartEstimate, Placement, Where, WorldEstimate
-from planner.vocabulary import (
-    Action,
-    SenseHumanAttachingWhere,
-    SenseHumanHolding,
-    SenseHumanHoldingWhichPart,
-    SenseHumanUnholding,
-    SenseShapeOf,
-)
+from app.sources.camera_feed import View, ViewFeed, settle_frames
+from app.sources.camera_reading import Reading, is_sensing, outcome_of, where_words
+from perception.frames import Frame
+from perception.world import WorldEstimate
+from planner.vocabulary import Action
 
 JPEG_WIDTH = 320  # px: enough to recognise the bench in a review, a few kB each
 JPEG_QUALITY = 80
-# A face's outline is an answer once this share of its recent looks read it, over
-# at least this many looks: one blurred frame must not decide what a part is.
-OUTLINE_AGREEMENT = 0.6
-OUTLINE_LOOKS = 5
 
 
-@dataclass(frozen=True)
-class Reading:
-    """An estimate mapped onto a node: the label it fits (or None, and why), or what
-    the person did that no outcome of the node expects (`surprise`)."""
+class BeforeLook(Protocol):
+    """What happens at a sensing node before the camera looks. In a simulated run a
+    simulated human acts out an outcome there (app.sim.human implements this), so
+    the camera, not the simulator, says which branch is taken."""
 
-    label: str | None
-    confidence: float
-    reason: str
-    surprise: Surprise | None = None
+    def before_look(self, node_id: str, node: Node, options: Sequence[str]) -> bool:
+        """Acts at the node; False when nothing is to be looked at (whoever says what
+        happens had no answer, e.g. no click before an abort)."""
+        ...
+
+    def truth(self, node_id: str) -> str | None:
+        """The outcome that really happened at `node_id`, when known (it is kept with
+        the camera's answer, so agreement is counted from the store)."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -73,117 +71,16 @@ class CameraObservation:
     seconds: float
 
 
-def is_sensing(action: Action | None) -> bool:
-    return isinstance(
-        action,
-        SenseHumanHolding
-        | SenseHumanHoldingWhichPart
-        | SenseHumanUnholding
-        | SenseHumanAttachingWhere
-        | SenseShapeOf,
-    )
+@dataclass(frozen=True)
+class Look:
+    """The views read at one node: the last one and, once stable, its reading (else
+    why the look ended without one)."""
 
-
-def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[str]) -> Reading:
-    """The outcome of a sensing `action` that `world` shows, if it is one of `options`."""
-    human = world.human
-    match action:
-        case SenseHumanHolding():
-            label = "yes" if human.holding else "no"
-            if human.holding and "yes" not in options:
-                # The plan counted on no more initiative: the human took a part anyway.
-                return _took(human.holding[0], human.confidence)
-            words = (
-                f"the human holds {', '.join(human.holding)}"
-                if human.holding
-                else "the human's hands are free"
-            )
-            return _fit(label, human.confidence, words, options)
-        case SenseHumanHoldingWhichPart():
-            if not human.holding:
-                return Reading(None, human.confidence, "the human's hands look free")
-            held = [p for p in human.holding if p in options]
-            if not held:
-                return _took(human.holding[0], human.confidence)
-            return Reading(held[0], world.parts[held[0]].confidence, f"the human holds {held[0]}")
-        case SenseHumanUnholding(part):
-            est = world.parts.get(part)
-            if est is None:
-                return Reading(None, 0.0, f"{part} is not on this bench")
-            if est.where is Where.HELD_BY_HUMAN:
-                return _fit("no", est.confidence, f"{part} is in the human's hands", options)
-            if est.where in (Where.ON_BENCH, Where.ATTACHED):
-                words = f"{part} is {where_words(est.placement)}"
-                return _fit("yes", est.confidence, words, options)
-            return Reading(None, est.confidence, f"{part} is {where_words(est.placement)}")
-        case SenseHumanAttachingWhere(part, onto):
-            est = world.parts.get(part)
-            if est is None:
-                return Reading(None, 0.0, f"{part} is not on this bench")
-            p = est.placement
-            if p.where is Where.ATTACHED and p.attached_to == onto and p.slot is not None:
-                return _fit(p.slot, est.confidence, f"{part} is on {onto} at {p.slot}", options)
-            words = f"{part} is {where_words(p)}, not on {onto}"
-            if p.where is Where.ATTACHED and p.attached_to is not None and p.slot is not None:
-                surprise = Surprise("attach", (part, p.attached_to, p.slot))
-                return Reading(None, est.confidence, words, surprise)
-            if p.where is Where.ON_BENCH:
-                return Reading(None, est.confidence, words, Surprise("putdown", (part,)))
-            return Reading(None, est.confidence, words)
-        case SenseShapeOf(part):
-            return _outline_reading(world, part, options)
-    return Reading(None, 0.0, "not a sensing node")
-
-
-def _outline_reading(world: WorldEstimate, part: str, options: Sequence[str]) -> Reading:
-    """The shape of `part`'s face as its recent looks read it (the labels of a
-    shapeOf node are the shapes themselves)."""
-    est = world.parts.get(part)
-    if est is None:
-        return Reading(None, 0.0, f"{part} is not on this bench")
-    outline = est.outline
-    if outline is None or outline.looks == 0:
-        return Reading(None, 0.0, f"{part}'s face has not been in view")
-    if outline.shape is None:
-        return Reading(None, 0.0, f"{part}'s face is not clear in {outline.looks} looks")
-    share = f"{outline.confidence:.0%} of {outline.looks} looks"
-    words = f"{part}'s face looks {outline.shape} in {share}"
-    if outline.looks < OUTLINE_LOOKS or outline.confidence < OUTLINE_AGREEMENT:
-        return Reading(None, outline.confidence, f"{words}: not yet a steady reading")
-    return _fit(outline.shape, outline.confidence, words, options)
-
-
-def _took(part: str, confidence: float) -> Reading:
-    words = f"the human holds {part}, which no outcome here expects"
-    return Reading(None, confidence, words, Surprise("take", (part,)))
-
-
-def _fit(label: str, confidence: float, words: str, options: Sequence[str]) -> Reading:
-    if label in options:
-        return Reading(label, confidence, words)
-    return Reading(None, confidence, f"{words}: '{label}' is not one of {', '.join(options)}")
-
-
-def where_words(p: Placement) -> str:
-    """Where a placement puts a part, in words."""
-    match p.where:
-        case Where.ON_BENCH:
-            return f"on the bench in {p.region}"
-        case Where.HELD_BY_HUMAN:
-            return "in the human's hands"
-        case Where.HELD_BY_ROBOT:
-            return "in the robot's gripper"
-        case Where.ATTACHED:
-            return f"attached to {p.attached_to} at {p.slot}"
-    return "out of sight"
-
-
-def belief_words(p: PartEstimate) -> str:
-    """Where a part is, and for one whose shape is open what its face looks like."""
-    words = where_words(p.placement)
-    if p.outline is not None and p.outline.shape is not None:
-        words += f", looks {p.outline.shape} ({p.outline.confidence:.0%})"
-    return words
+    view: View | None
+    reading: Reading | None
+    reason: str
+    frames: int
+    seconds: float
 
 
 def placements(world: WorldEstimate) -> dict[str, str]:
@@ -200,24 +97,17 @@ def outlines(world: WorldEstimate) -> dict[str, str]:
     }
 
 
-def _seen(
-    decided: tuple[str, str],
-    reading: Reading,
-    world: WorldEstimate,
-    frame: Frame,
-    frames: int,
-    seconds: float,
-) -> dict[str, Any]:
+def _seen(decided: tuple[str, str], reading: Reading, view: View, look: Look) -> dict[str, Any]:
     """The evidence of a camera reading; `decided` is what it said ("label" or "surprise")."""
-    faces = outlines(world)
+    faces = outlines(view.world)
     return {
         decided[0]: decided[1],
         "confidence": round(reading.confidence, 3),
         "reason": reading.reason,
-        "frames": frames,
-        "frame_index": frame.index,
-        "seconds": round(seconds, 3),
-        "placements": placements(world),
+        "frames": look.frames,
+        "frame_index": view.frame.index,
+        "seconds": round(look.seconds, 3),
+        "placements": placements(view.world),
         **({"outlines": faces} if faces else {}),
     }
 
@@ -225,18 +115,15 @@ def _seen(
 def camera_outcome(
     action: Action | None,
     reading: Reading,
-    world: WorldEstimate,
-    frame: Frame,
-    frames: int,
-    seconds: float,
+    view: View,
+    look: Look,
     truth: str | None,
     picture: bytes,
 ) -> Outcome:
     """A camera answer with its evidence: the reading, the deciding frame, and (with a
     simulated human) what the human really did, so agreement is counted from the store."""
     assert reading.label is not None
-    seen = _seen(("label", reading.label), reading, world, frame, frames, seconds)
-    detail: dict[str, Any] = {"camera": seen}
+    detail: dict[str, Any] = {"camera": _seen(("label", reading.label), reading, view, look)}
     if truth is not None:
         detail["truth"] = truth
     return Outcome(
@@ -248,17 +135,10 @@ def camera_outcome(
     )
 
 
-def camera_surprise(
-    reading: Reading,
-    world: WorldEstimate,
-    frame: Frame,
-    frames: int,
-    seconds: float,
-    picture: bytes,
-) -> Outcome:
+def camera_surprise(reading: Reading, view: View, look: Look, picture: bytes) -> Outcome:
     """What the camera saw that fits no outcome: the executor plans again from it."""
     assert reading.surprise is not None
-    seen = _seen(("surprise", str(reading.surprise)), reading, world, frame, frames, seconds)
+    seen = _seen(("surprise", str(reading.surprise)), reading, view, look)
     return Outcome(
         "",
         "camera",
@@ -281,113 +161,136 @@ def jpeg(frame: Frame, width: int = JPEG_WIDTH, quality: int = JPEG_QUALITY) -> 
     return bytes(data.tobytes())
 
 
-class CameraSource:
-    """Answers sensing nodes from what `frames` show, through `perception`.
+def _ended(why: str, reading: Reading | None) -> str:
+    """Why a look ended before a view decided it; after a stable view that fitted
+    nothing, that view's words come first."""
+    if reading is None:
+        return why
+    if reading.label is not None or reading.surprise is not None:
+        return reading.reason
+    return f"{reading.reason} ({why})"
 
-    At each node it reads at least `min_frames` fresh frames (so a change made
-    just before, by the human or the robot, has passed the tracker's and the
-    estimate's hysteresis), then until the estimate is stable; it gives up after
-    `max_frames` frames or `timeout_s` seconds. `record`, when a list, collects
-    every frame read (to write a video of the run).
+
+class CameraSource:
+    """Answers sensing nodes from the views of `feed`, after `before` has acted.
+
+    At each node it reads at least `min_frames` fresh views (by default the
+    tracker's and the estimate's hysteresis: `settle_frames`), then until the
+    estimate is stable; it gives up after `max_frames` views (None: no limit) or
+    `timeout_s` seconds, or at once when `interrupt()` is called (an abort).
     """
 
     name = "camera"
 
     def __init__(
         self,
-        frames: FrameSource,
-        perception: BenchPerception,
-        human: SimulatedHuman | None = None,
+        feed: ViewFeed,
+        before: BeforeLook | None = None,
         *,
         min_frames: int | None = None,
-        max_frames: int = 120,
+        max_frames: int | None = 120,
         timeout_s: float = 10.0,
-        record: list[Frame] | None = None,
     ) -> None:
-        self.frames = frames
-        self.perception = perception
-        self.human = human
-        if min_frames is None:
-            settle = (
-                perception.tracker.settings.confirm_frames
-                + perception.estimator.settings.hysteresis_frames
-            )
-            min_frames = settle + perception.estimator.settings.stable_frames
-        self.min_frames = min_frames
+        self.feed = feed
+        self.before = before
+        self.min_frames = settle_frames(feed.perception) if min_frames is None else min_frames
         self.max_frames = max_frames
         self.timeout_s = timeout_s
-        self.record = record
         self.last_observation: CameraObservation | None = None
         self.last_frame_jpeg: bytes | None = None
         self.observations: list[CameraObservation] = []
         self._surprised: set[tuple[str, Surprise]] = set()
+        self._interrupted = threading.Event()
+
+    def interrupt(self) -> None:
+        """Ends a look under way, and every later one, without an answer (an abort);
+        whoever acts before a look is interrupted too (a click being waited for)."""
+        self._interrupted.set()
+        interrupt = getattr(self.before, "interrupt", None)
+        if callable(interrupt):
+            interrupt()
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         action = node.action
         if not is_sensing(action):
             return None
-        start = time.monotonic()  # before the human acts: its move is part of the time
-        if self.human is not None:
-            self.human.act(node_id, node, options)
-        world: WorldEstimate | None = None
-        last: Frame | None = None
-        count = 0
-        reason = "no frames"
-        while count < self.max_frames:
-            if time.monotonic() - start > self.timeout_s:
-                reason = f"no stable view within {self.timeout_s:g} s"
-                break
-            frame = self.frames.read()
-            if frame is None:
-                reason = "the frames ended"
-                break
-            if self.record is not None:
-                self.record.append(frame)
-            count += 1
-            last = frame
-            world = self.perception.process(frame).world
-            if count >= self.min_frames and world.stable:
-                break
-        else:
-            reason = f"no stable view within {self.max_frames} frames"
-        seconds = time.monotonic() - start
-        if world is None or last is None or not world.stable:
-            self._keep(node_id, action, world, None, reason, count, seconds)
+        if self.before is not None and not self.before.before_look(node_id, node, options):
+            return None  # nobody said what happens here: the fallback asks
+        look = self._look(action, options)
+        self._keep(node_id, action, look)
+        view, reading = look.view, look.reading
+        if view is None or reading is None:
             return None
-        reading = outcome_of(action, world, options)
-        self._keep(node_id, action, world, reading.label, reading.reason, count, seconds)
-        if reading.surprise is not None and (node_id, reading.surprise) not in self._surprised:
-            # Said once per node: if the executor cannot follow it, the fallback answers
-            # instead of the camera repeating what was already refused.
+        if reading.surprise is not None:
+            if (node_id, reading.surprise) in self._surprised:
+                # Said once per node: if the executor could not follow it, the fallback
+                # answers instead of the camera repeating what was already refused.
+                return None
             self._surprised.add((node_id, reading.surprise))
-            self.last_frame_jpeg = jpeg(last)
-            return camera_surprise(reading, world, last, count, seconds, self.last_frame_jpeg)
+            self.last_frame_jpeg = jpeg(view.frame)
+            return camera_surprise(reading, view, look, self.last_frame_jpeg)
         if reading.label is None:
             return None
-        self.last_frame_jpeg = jpeg(last)
-        truth = None if self.human is None else self.human.did.get(node_id)
-        return camera_outcome(
-            action, reading, world, last, count, seconds, truth, self.last_frame_jpeg
-        )
+        self.last_frame_jpeg = jpeg(view.frame)
+        truth = None if self.before is None else self.before.truth(node_id)
+        return camera_outcome(action, reading, view, look, truth, self.last_frame_jpeg)
 
-    def _keep(
-        self,
-        node_id: str,
-        action: Action | None,
-        world: WorldEstimate | None,
-        label: str | None,
-        reason: str,
-        frames: int,
-        seconds: float,
-    ) -> None:
+    def _look(self, action: Action | None, options: Sequence[str]) -> Look:
+        """Reads views until a stable one decides the node, or a limit ends the look.
+
+        A stable view decides when it fits an option or shows a surprise. When it
+        does neither, it decides too if someone acted before the look (what is seen
+        now is what they did); else a person may still be on the way, and the
+        camera watches on."""
+        start = time.monotonic()  # after the act: the time from the human's move
+        self.feed.start_look()
+        view: View | None = None
+        reading: Reading | None = None
+        count = 0
+        while True:
+            limit = self._limit(count, start)
+            if limit is not None:
+                reason = _ended(limit, reading)
+                break
+            got = self.feed.next_view(min(1.0, self.timeout_s - (time.monotonic() - start)))
+            if got is None:
+                if self.feed.ended is None:
+                    continue
+                if reading is None and view is not None and view.world.stable:
+                    # The last view is all there will be: a stable one says what it shows.
+                    reading = outcome_of(action, view.world, options)
+                reason = _ended(self.feed.ended, reading)
+                break
+            view, reading, count = got, None, count + 1
+            if count < self.min_frames or not got.world.stable:
+                continue
+            reading = outcome_of(action, got.world, options)
+            decided = reading.label is not None or reading.surprise is not None
+            if decided or self.before is not None:
+                reason = reading.reason
+                break
+        return Look(view, reading, reason, count, time.monotonic() - start)
+
+    def _limit(self, count: int, start: float) -> str | None:
+        """Why the look ends before a view decides it, if it does."""
+        if self._interrupted.is_set():
+            return "interrupted"
+        if self.max_frames is not None and count >= self.max_frames:
+            return f"no stable view that decides within {self.max_frames} frames"
+        if time.monotonic() - start > self.timeout_s:
+            return f"no stable view that decides within {self.timeout_s:g} s"
+        return None
+
+    def _keep(self, node_id: str, action: Action | None, look: Look) -> None:
+        reading = look.reading
         obs = CameraObservation(
             node_id,
             None if action is None else str(action),
-            world,
-            label,
-            reason,
-            frames,
-            seconds,
+            None if look.view is None else look.view.world,
+            None if reading is None else reading.label,
+            look.reason,
+            look.frames,
+            look.seconds,
         )
         self.last_observation = obs
         self.observations.append(obs)

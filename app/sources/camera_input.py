@@ -1,10 +1,11 @@
-"""Where a camera command's frames come from: a SOURCE spec and its intrinsics.
+"""Where a real camera's frames come from: a SOURCE spec and its intrinsics.
 
-SOURCE is `sim` (the scenario's bench, rendered by the simulated camera),
-`webcam[:INDEX]`, `/dev/videoN`, a video file or a folder of images. Real
-sources take the intrinsics of a calibration file (`tandem camera calibrate`)
-or, without one, the documented default for their image size (a 60 degree
-horizontal field of view, the principal point at the centre, no distortion).
+SOURCE is `webcam[:INDEX]`, `/dev/videoN`, a video file or a folder of images.
+Real sources take the intrinsics of a calibration file (`tandem camera
+calibrate`) or, without one, the documented default for their image size (a 60
+degree horizontal field of view, the principal point at the centre, no
+distortion). The simulated camera (`sim`) is opened beside the simulators, by
+app.responses.camera.open_camera, which takes every SOURCE.
 """
 
 from __future__ import annotations
@@ -13,11 +14,8 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from perception.frames import FrameSource, SourceError, open_source
+from perception.frames import FrameSource, open_source
 from perception.intrinsics import CameraIntrinsics
-from planner.scenario.model import Scenario
-
-SIM_SIZE = (640, 640)  # every code of the default bench decodes in a clean 640 px frame
 
 
 class CalibrationFileError(ValueError):
@@ -48,23 +46,13 @@ def load_calibration(path: str | Path) -> CameraIntrinsics:
     return intrinsics
 
 
-def open_camera(
+def open_real_camera(
     spec: str,
-    scenario: Scenario | None = None,
     calibration: CameraIntrinsics | None = None,
     calibration_name: str = "",
 ) -> CameraInput:
-    """The frames of `spec`; `SourceError` (one line) when they cannot be read."""
-    if spec == "sim":
-        if scenario is None:
-            raise SourceError("the simulated camera needs a scenario")
-        # Imported here: the simulated camera loads pybullet.
-        from app.sim.human import StillSimulatedCamera
-        from app.sources.bench_layout import sim_scene
-        from perception.sim import SimulatedCamera
-
-        camera = StillSimulatedCamera(SimulatedCamera(sim_scene(scenario), size=SIM_SIZE))
-        return CameraInput(camera, camera.camera.intrinsics, "simulated")
+    """The frames of a real camera, file or folder `spec`; `SourceError` (one line)
+    when they cannot be read."""
     frames = open_source(spec)
     if calibration is not None:
         return CameraInput(frames, calibration, calibration_name or "calibration")

@@ -3,32 +3,42 @@ the latest view serves a live display and the answers of an execution.
 
 `LiveCamera` owns a frame source (a real camera, a file, a folder, or the
 simulated camera) and its `BenchPerception`; views reach `on_view` as they come.
-`LiveCameraSource` answers an execution's sensing nodes from the views that
-follow the moment a node is asked (or, with the simulated camera, the moment the
-simulated human acted out what a click chose): the camera, not the click, says
-which branch is taken. `for_execution` wires both for one run of a plan.
+`LiveFeed` gives an execution's camera source (app/sources/camera.py) the views
+that follow the moment a node is asked (or, with the simulated camera, the
+moment the simulated human acted out what a click chose): the camera, not the
+click, says which branch is taken, and a surprise it sees reaches the executor
+as in a headless run. `live_source` makes that source.
 """
 
 from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
-from app.execution.events import ExecutionEvent, Node, Outcome, OutcomeSource
-from app.sim.human import SimulatedHuman, SimulatedWorld, StillSimulatedCamera
 from app.sources.bench_layout import bench_layout
-from app.sources.camera import camera_outcome, is_sensing, jpeg, outcome_of
+from app.sources.camera import BeforeLook, CameraSource
+from app.sources.camera_feed import View
 from perception.frames import Frame, FrameSource
 from perception.intrinsics import CameraIntrinsics
 from perception.pipeline import BenchPerception, Perceived
-from planner.feasibility.scene import part_boxes
-from planner.plan.model import Plan
 from planner.scenario.model import Scenario
 
 Vec3 = tuple[float, float, float]
-Listener = Callable[[ExecutionEvent], None]
+# A person at a live camera acts in their own time: a look waits this long for a
+# view that fits (a simulated human has acted before the look: the first stable view).
+LIVE_TIMEOUT_S = 15.0
+
+
+class SimulatedBench(Protocol):
+    """The scene of a simulated camera, whose parts a simulated world moves and
+    redraws (the simulated camera's frames, app.sim)."""
+
+    def move(self, part_id: str, position: Vec3, yaw: float | None = None) -> None: ...
+
+    def reshape(self, part_id: str, profile: str) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -54,7 +64,7 @@ class LiveCamera:
         scenario: Scenario,
         *,
         name: str,
-        simulated: StillSimulatedCamera | None = None,
+        simulated: SimulatedBench | None = None,
         pace_fps: float | None = 30.0,
         on_view: Callable[[LiveView], None] | None = None,
     ) -> None:
@@ -157,94 +167,37 @@ class LiveCamera:
             with self._cond:
                 self._cond.notify_all()
 
-    def for_execution(
-        self, plan: Plan, intent: OutcomeSource
-    ) -> tuple[OutcomeSource, list[Listener]]:
-        """The camera's answers for one run of `plan`, and the listeners to add. With
-        the simulated camera the bench is reset and a simulated human acts out, at
-        each sensing node, what `intent` (the clicks) chooses."""
-        if self.simulated is None:
-            return LiveCameraSource(self), []
-        world = SimulatedWorld(part_boxes(self.scenario), self.layout, self)
-        human = SimulatedHuman(plan, world)
-        return LiveCameraSource(self, human, intent), [human.on_event]
 
+class LiveFeed:
+    """The views of a running `LiveCamera` that come after a look starts (a `ViewFeed`)."""
 
-class LiveCameraSource:
-    """Answers sensing nodes from the live views that follow the question.
-
-    It reads at least `settle_frames` new views (the tracker's and the estimate's
-    hysteresis), then takes the first stable estimate that fits an option (a
-    simulated run takes the first stable one: the human has already acted), and
-    gives up after `timeout_s`.
-    """
-
-    name = "camera"
-
-    def __init__(
-        self,
-        live: LiveCamera,
-        human: SimulatedHuman | None = None,
-        intent: OutcomeSource | None = None,
-        *,
-        settle_frames: int | None = None,
-        timeout_s: float = 15.0,
-    ) -> None:
+    def __init__(self, live: LiveCamera) -> None:
         self.live = live
-        self.human = human
-        self.intent = intent
-        perception = live.perception
-        if settle_frames is None:
-            settle_frames = (
-                perception.tracker.settings.confirm_frames
-                + perception.estimator.settings.hysteresis_frames
-                + perception.estimator.settings.stable_frames
-            )
-        self.settle_frames = settle_frames
-        self.timeout_s = timeout_s
-        self._interrupted = threading.Event()
-        self.answer_seconds: list[float] = []  # from the human's act to the answer
+        self._seq = 0
 
-    def interrupt(self) -> None:
-        self._interrupted.set()
+    @property
+    def perception(self) -> BenchPerception:
+        return self.live.perception
 
-    def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
-        action = node.action
-        if not is_sensing(action):
-            return None
-        wanted: Outcome | None = None
-        if self.human is not None:
-            if self.intent is not None:
-                wanted = self.intent.choose(node_id, node, options)
-                if wanted is None:
-                    return None  # no click (an abort): the fallback asks
-        # From before the human acts (its move is part of the time), after any click.
-        start = time.monotonic()
-        if self.human is not None:
-            # Without an intent the simulated human makes its own (seeded) choice.
-            self.human.act(node_id, node, options, None if wanted is None else wanted.label)
+    @property
+    def ended(self) -> str | None:
+        if self.live.ended is not None:
+            return self.live.ended
+        return None if self.live.running else "the camera was stopped"
+
+    def start_look(self) -> None:
         latest = self.live.latest()
-        seq = 0 if latest is None else latest.seq
-        count = 0
-        while not self._interrupted.is_set() and time.monotonic() - start < self.timeout_s:
-            view = self.live.wait_view(seq, 1.0)
-            if view is None:
-                if self.live.ended is not None or not self.live.running:
-                    return None  # the frames ended or the camera was stopped
-                continue
-            seq, count = view.seq, count + 1
-            world = view.perceived.world
-            if count < self.settle_frames or not world.stable:
-                continue
-            reading = outcome_of(action, world, options)
-            if reading.label is None:
-                if self.human is not None:
-                    return None  # the human has acted: what is seen is the answer, or none
-                continue  # a person may still be on the way: keep watching
-            seconds = time.monotonic() - start
-            self.answer_seconds.append(seconds)
-            truth = None if self.human is None else self.human.did.get(node_id)
-            return camera_outcome(
-                action, reading, world, view.frame, count, seconds, truth, jpeg(view.frame)
-            )
-        return None
+        self._seq = 0 if latest is None else latest.seq
+
+    def next_view(self, timeout: float) -> View | None:
+        view = self.live.wait_view(self._seq, timeout)
+        if view is None:
+            return None
+        self._seq = view.seq
+        return View(view.frame, view.perceived.world)
+
+
+def live_source(live: LiveCamera, before: BeforeLook | None = None) -> CameraSource:
+    """The camera source of one execution on `live`; `before` acts at each sensing
+    node before the camera looks (a simulated human acting out a click)."""
+    return CameraSource(LiveFeed(live), before, max_frames=None, timeout_s=LIVE_TIMEOUT_S)
