@@ -133,7 +133,8 @@ def test_the_camera_sees_what_the_human_holds_in_the_real_world_task() -> None:
                 continue
             truth = run.human.did[e.node]
             assert e.source == "camera", (seed, e, run.source.last_observation)
-            assert e.evidence is not None and e.evidence.detail["truth"] == truth
+            assert e.evidence is not None and e.evidence.truth is not None
+            assert e.evidence.truth.label == truth
             query = type(action).__name__
             if e.outcome != truth:
                 wrong.append((seed, query, e.outcome, truth))

@@ -219,9 +219,9 @@ def test_tandem_execute_with_the_simulated_camera(tmp_path: Path) -> None:
         assert e.evidence is not None and e.evidence.jpeg is not None
         image = cv2.imdecode(np.frombuffer(e.evidence.jpeg, np.uint8), cv2.IMREAD_COLOR)
         assert image is not None and image.shape[1] == 320
-        camera = e.evidence.detail["camera"]
+        camera = e.evidence.camera
         assert camera["label"] == e.outcome and camera["frames"] >= 1 and camera["reason"]
-        assert e.evidence.detail["truth"] == e.outcome, e
+        assert e.evidence.truth is not None and e.evidence.truth.label == e.outcome, e
     assert all(e.evidence is None for e in events if e.source != "camera")
     shown = tandem("sessions", "show", str(session.id), env=env)
     assert shown.returncode == 0, shown.stderr
@@ -260,7 +260,8 @@ def test_what_the_camera_sees_against_the_plan_is_repaired(
     assert human.surprised_at is not None, "the seed never reached an attaching question"
     (repair,) = [e for e in executor.events if e.kind == REPAIR]
     assert repair.node == human.surprised_at and repair.source == "camera"
-    assert repair.evidence is not None and repair.evidence.detail["surprise"].startswith("putdown")
+    assert repair.evidence is not None and repair.evidence.replanned is not None
+    assert repair.evidence.replanned.surprise.startswith("putdown")
     assert repair.text is not None and "I see you put the leg2 down" in repair.text
     asked = plan.nodes[repair.node].action
     assert isinstance(asked, SenseHumanAttachingWhere)

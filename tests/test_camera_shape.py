@@ -89,8 +89,9 @@ def test_the_camera_reads_every_look_at_a_shape_as_the_world_is(
             assert e.outcome == truth == run.human.did[e.node], (seed, e)
             assert e.confidence is not None and e.confidence >= 0.6
             assert e.evidence is not None
-            camera = e.evidence.detail["camera"]
-            assert camera["label"] == truth and e.evidence.detail["truth"] == truth
+            camera = e.evidence.camera
+            assert camera is not None and camera.value == truth
+            assert e.evidence.truth is not None and e.evidence.truth.label == truth
             assert camera["outlines"][action.part].startswith(truth)
             seen[(action.part, truth)] += 1
     print(f"\n{len(SEEDS)} seeds, shapes the camera read: {dict(seen)}, hidden: {hidden}")
@@ -149,4 +150,5 @@ def test_tandem_execute_real_world_with_the_simulated_camera(tmp_path: Path) -> 
             assert looks
             for e in looks:
                 assert e.source == "camera", e
-                assert e.evidence is not None and e.evidence.detail["truth"] == e.outcome
+                assert e.evidence is not None and e.evidence.truth is not None
+                assert e.evidence.truth.label == e.outcome

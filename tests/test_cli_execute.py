@@ -13,9 +13,10 @@ from typing import Any
 
 import pytest
 
-from app.sessions.store import DB_NAME, SessionStore, is_plan_path
+from app.sessions.store import DB_NAME, SessionStore
 from planner.plan.model import Plan
 from tests.plan_fixtures import ROOT, default_plan, paper_plan, tandem, tandem_command
+from tests.plan_paths import is_plan_path
 
 
 @pytest.fixture(scope="module")
@@ -101,7 +102,7 @@ def test_click_without_input_takes_the_expected_outcomes(
     assert done.returncode == 0, done.stderr
     sid = session_id(done.stdout)
     with SessionStore(env["TANDEM_DATA_DIR"]) as store:
-        steps = [(e.action, e.outcome) for e in store.events(sid) if e.kind != "goal"]
+        steps = [(str(e.action), e.outcome) for e in store.events(sid) if e.kind != "goal"]
     assert steps == Plan.read(plan_file).first_branch()
 
 

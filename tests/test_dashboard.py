@@ -173,7 +173,7 @@ def test_malformed_scenario_shows_an_error_and_the_page_keeps_working(
 
 
 def test_click_through_an_execution_then_review_it(page: Page, dashboard: Dashboard) -> None:
-    from app.sessions.store import is_plan_path
+    from tests.plan_paths import is_plan_path
 
     if not plan_shown(dashboard)():
         page.get_by_role("button", name="Plan", exact=True).click()

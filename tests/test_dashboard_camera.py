@@ -140,9 +140,9 @@ def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> No
     assert sensing and all(e.source == "camera" for e in sensing), sensing
     for e in sensing:
         assert e.evidence is not None and e.evidence.jpeg is not None
-        assert e.evidence.detail["truth"] == e.outcome
+        assert e.evidence.truth is not None and e.evidence.truth.label == e.outcome
         # From the human's act to the answer, with frames at 30 fps.
-        assert e.evidence.detail["camera"]["seconds"] < 2.0
+        assert e.evidence.camera is not None and e.evidence.camera.seconds < 2.0
     questions = [e for e in events if e.kind == "communication" and e.outcome]
     assert all(e.source == "click" for e in questions)
     page.get_by_text("answered by the camera", exact=False).first.wait_for()
@@ -195,7 +195,8 @@ def test_a_surprise_the_live_camera_sees_is_repaired(page: Page, dashboard: Dash
     asked = parse_action(repair.action or "")
     assert isinstance(asked, SenseHumanAttachingWhere)
     assert repair.evidence is not None
-    assert repair.evidence.detail["surprise"] == f"putdown {asked.part}"
+    assert repair.evidence.replanned is not None
+    assert repair.evidence.replanned.surprise == f"putdown {asked.part}"
     assert repair.text is not None and f"I see you put the {asked.part} down" in repair.text
     # The camera answered on after the repair, on the new plan.
     after = events[events.index(repair) + 1 :]

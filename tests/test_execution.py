@@ -11,7 +11,7 @@ import pytest
 
 from app.execution.events import ExecutionEvent, Outcome, describe
 from app.execution.walker import Executor
-from app.sessions.store import SessionStore, is_plan_path
+from app.sessions.store import SessionStore
 from app.sources.outcomes import (
     ClickSource,
     ExpectedSource,
@@ -22,6 +22,7 @@ from app.sources.outcomes import (
 )
 from planner.plan.model import Plan
 from tests.plan_fixtures import PAPER_NAMES, default_plan, paper_plan
+from tests.plan_paths import is_plan_path
 
 SEEDS = range(100)
 
@@ -99,7 +100,7 @@ def test_the_same_seed_takes_the_same_branch(plan: Plan) -> None:
 def test_expected_outcomes_follow_the_first_branch(plan: Plan) -> None:
     executor = walk(plan, ExpectedSource())
     assert executor.result == "goal"
-    steps = [(e.action, e.outcome) for e in executor.events if e.kind != "goal"]
+    steps = [(str(e.action), e.outcome) for e in executor.events if e.kind != "goal"]
     assert steps == plan.first_branch()
     assert {e.source for e in executor.events if e.outcome is not None} == {"expected"}
 
@@ -109,7 +110,7 @@ def test_events_carry_motions_and_sentences(plan: Plan) -> None:
     assert [e.seq for e in executor.events] == list(range(len(executor.events)))
     for event in executor.events:
         node = plan.nodes[event.node]
-        assert event.kind == node.kind and event.action == (node.action and str(node.action))
+        assert event.kind == node.kind and event.action == node.action
         if event.kind == "actuation":
             assert event.motion is not None and event.motion == node.motion
             assert event.motion.arm in ("left", "right") and event.motion.path

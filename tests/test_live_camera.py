@@ -69,7 +69,8 @@ def test_live_answers_follow_the_humans_moves(scenario: Scenario, plan: Plan) ->
     assert sensing and all(e.source == "camera" for e in sensing)
     assert human.agreement(executor.events) == (len(sensing), len(sensing))
     for e in sensing:
-        assert e.evidence is not None and e.evidence.detail["truth"] == e.outcome
+        assert e.evidence is not None and e.evidence.truth is not None
+        assert e.evidence.truth.label == e.outcome
     # Each answer from the human's move: the render, and ~11 frames at 30 fps.
     answers = [o.seconds for o in source.observations if o.label is not None]
     assert len(answers) == len(sensing)
@@ -92,7 +93,9 @@ def test_a_person_seen_against_the_plan_is_a_surprise(scenario: Scenario, plan: 
         assert surprised is not None and surprised.source == "camera"
         assert surprised.surprise is not None and str(surprised.surprise) == "take leg2"
         assert surprised.evidence is not None and surprised.evidence.jpeg
-        assert surprised.evidence.detail["camera"]["surprise"] == "take leg2"
+        assert surprised.evidence.camera is not None
+        assert surprised.evidence.camera.decided == "surprise"
+        assert surprised.evidence.camera.value == "take leg2"
         # Said once per node; the person putting it down then answers "no".
         assert source.choose(node_id, node, ["no"]) is None
         world.human_put_down("leg2")
@@ -130,7 +133,8 @@ def test_a_surprise_the_live_camera_sees_is_repaired(
     assert put_down.surprised_at is not None, "the plan never asked where a part went"
     (repair,) = [e for e in executor.events if e.kind == REPAIR]
     assert repair.node == put_down.surprised_at and repair.source == "camera"
-    assert repair.evidence is not None and repair.evidence.detail["surprise"].startswith("putdown")
+    assert repair.evidence is not None and repair.evidence.replanned is not None
+    assert repair.evidence.replanned.surprise.startswith("putdown")
     assert isinstance(plan.nodes[repair.node].action, SenseHumanAttachingWhere)
     assert repair.plan is not None and executor.plan is repair.plan
 

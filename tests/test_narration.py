@@ -24,8 +24,8 @@ def test_every_communication_is_spoken_when_reached_and_kept_with_its_event(
     assert spoken and len(heard) == len(spoken)
     for event, line in zip(spoken, heard, strict=True):
         assert event.evidence is not None
-        assert event.evidence.detail["said"] == line.text == plan.nodes[event.node].say
-        assert event.evidence.detail["engine"] == "espeak" == line.engine
+        assert event.evidence.spoken.said == line.text == plan.nodes[event.node].say
+        assert event.evidence.spoken.engine == "espeak" == line.engine
         assert line.utterance is not None
         with wave.open(str(line.utterance.path)) as audio:
             assert audio.getnframes() > 0.3 * audio.getframerate()
@@ -45,12 +45,22 @@ def test_questions_can_be_left_to_the_voice_source(tmp_path: Path) -> None:
 
 
 def test_a_voice_that_cannot_speak_does_not_stop_the_session(tmp_path: Path) -> None:
+    """gTTS alone: offline, every line fails and is kept with its error; online,
+    every line is gTTS's. Either way the session goes on and each line is kept."""
     plan = default_plan()
-    robot = RobotVoice("en-us", "gtts", tmp_path)  # offline: gTTS never answers
+    robot = RobotVoice("en-us", "gtts", tmp_path)
     executor = Executor(plan, ExpectedSource(), narrator=robot)
     assert executor.run() == "goal"
-    if all(line.utterance is not None for line in robot.lines):
-        return  # online: gTTS spoke; nothing failed to test
-    failed = [line for line in robot.lines if line.utterance is None]
-    assert failed and all(line.engine == "none" and line.error for line in failed)
+    said = [e for e in executor.events if e.kind == "communication"]
+    assert said and len(robot.lines) == len(said)
+    for event, line in zip(said, robot.lines, strict=True):
+        assert event.evidence is not None and event.evidence.spoken.said == line.text
+        assert event.evidence.spoken.engine == line.engine
+        if line.utterance is None:  # offline: gTTS never answers
+            assert line.engine == "none" and line.error
+            assert event.evidence.spoken.speech_error == line.error
+        else:  # online: gTTS spoke, with no fallback and no error
+            assert line.engine == "gtts" and line.error is None
+            assert line.utterance.path.stat().st_size > 0
+    # A failed request writes nothing: no empty file is left for the cache to serve.
     assert not [p for p in tmp_path.rglob("*") if p.is_file() and p.stat().st_size == 0]

@@ -103,7 +103,8 @@ def test_a_human_at_another_point_makes_the_robot_plan_again_from_it(
     where = plan.nodes[where_id].action
     assert isinstance(where, SenseHumanAttachingWhere)
     seen = f"attached({where.part},{where.onto},{other})"
-    assert seen in repairs[0].evidence.detail["observed"] and branch != other
+    assert repairs[0].evidence.replanned is not None
+    assert seen in repairs[0].evidence.replanned.observed and branch != other
     # The new plan puts every later motion where its state says.
     assert audit(executor.plan.to_json()) == []
     assert slot_problems(executor.plan.to_json(), scenario) == []

@@ -76,10 +76,11 @@ def test_each_surprise_is_repaired_and_ends_at_the_goal(kind: str, tmp_path: Pat
         events = store.events(session.id)
         (repair,) = [e for e in events if e.kind == REPAIR]
         assert repair.evidence is not None
-        detail = repair.evidence.detail
-        new_plan = store.plan(str(detail["plan"]))  # the new plan is stored
-        assert detail["surprise"] == script.splitlines()[-1][1:]
-        assert set(detail["observed"]) == set(new_plan.nodes[new_plan.root].state)
+        replanned = repair.evidence.replanned
+        assert replanned is not None
+        new_plan = store.plan(replanned.plan)  # the new plan is stored
+        assert replanned.surprise == script.splitlines()[-1][1:]
+        assert set(replanned.observed) == set(new_plan.nodes[new_plan.root].state)
         after = events[repair.seq + 1 :]
         # The rest of the session walks the new plan from its root to a goal.
         assert after[0].node == new_plan.root and after[-1].kind == "goal"

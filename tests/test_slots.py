@@ -114,14 +114,17 @@ def test_the_next_robot_motion_at_a_leg_the_human_put_elsewhere_ends_at_its_real
     seen = events[at].evidence
     assert seen is not None
     # In the plan's names, and in the world's (the same here: no slot was taken before).
-    assert seen.detail["slot"] == {"onto": onto, "branch": branch, "used": real, "real": real}
+    assert seen.slot is not None
+    assert (seen.slot.onto, seen.slot.branch, seen.slot.used, seen.slot.real) == (
+        onto, branch, real, real
+    )
     # ...and the next robot motion working at that leg (a foot onto it) goes to its real slot.
     onto_leg = next(
-        e for e in events[at:] if e.action is not None and e.action.startswith("attach(")
-        and e.action.split(",")[1] == leg
+        e for e in events[at:] if isinstance(e.action, Attach) and e.action.onto == leg
     )  # fmt: skip
     assert onto_leg.motion is not None and onto_leg.evidence is not None
-    assert onto_leg.evidence.detail["retargeted"] == onto_leg.motion.model_dump()
+    assert onto_leg.evidence.retargeted is not None
+    assert onto_leg.evidence.retargeted.motion == onto_leg.motion
     stored = plan.nodes[onto_leg.node].motion
     assert stored is not None and stored.path != onto_leg.motion.path
     with World(scenario) as world:
@@ -133,12 +136,12 @@ def test_the_next_robot_motion_at_a_leg_the_human_put_elsewhere_ends_at_its_real
         assert math.dist(stored_end, world.site_target(Site(onto, branch))) <= POS_TOL
         # Every later re-targeted motion ends (attach) or starts (unhold) at a real slot
         # of that part's assembly.
-        retargeted = [e for e in events[at:] if e.evidence and "retargeted" in e.evidence.detail]
+        retargeted = [e for e in events[at:] if e.evidence and e.evidence.retargeted]
         assert len(retargeted) >= 2
         sites = [world.site_target(Site(onto, c)) for c in connection_points(plan.facts)[onto]]
         for e in retargeted:
             assert e.motion is not None and e.action is not None
-            q = e.motion.path[-1] if e.action.startswith("attach(") else e.motion.path[0]
+            q = e.motion.path[-1] if isinstance(e.action, Attach) else e.motion.path[0]
             assert min(math.dist(world.endpoint(e.motion.arm, q), xyz) for xyz in sites) <= POS_TOL
 
 
@@ -186,9 +189,9 @@ def test_tandem_execute_follows_a_scripted_slot_to_the_goal(plan: Plan, tmp_path
     with SessionStore(data) as store:
         session = store.list_sessions()[0]
         events = store.events(session.id)
-    details = [e.evidence.detail for e in events if e.evidence is not None]
-    assert any(d.get("slot", {}).get("real") == real for d in details)
-    assert any(isinstance(d.get("retargeted"), dict) for d in details)
+    evidence = [e.evidence for e in events if e.evidence is not None]
+    assert any(d.slot is not None and d.slot.real == real for d in evidence)
+    assert any(d.retargeted is not None and d.retargeted.motion for d in evidence)
 
 
 def _wrong_slot() -> tuple[dict[str, Any], dict[str, Any], str, str]:
@@ -257,7 +260,7 @@ def test_clicks_offer_every_free_slot_and_a_click_elsewhere_is_followed(
     assert set(offered[where_id]) == set(_free_points(plan, node.state, node.action.onto))
     event = next(e for e in executor.events if e.node == where_id)
     assert event.outcome == branch and event.text == describe(node.action, real)
-    assert any(e.evidence and "retargeted" in e.evidence.detail for e in executor.events)
+    assert any(e.evidence and e.evidence.retargeted for e in executor.events)
 
 
 def test_the_robot_attaches_at_a_free_slot_it_reaches_when_the_named_one_is_out_of_reach(
@@ -286,7 +289,7 @@ def test_the_robot_attaches_at_a_free_slot_it_reaches_when_the_named_one_is_out_
     assert result == "goal"
     event = next(e for e in events if e.node == node_id)
     assert event.motion == node.motion and event.evidence is None
-    assert not any(e.evidence and "retargeted" in e.evidence.detail for e in events)
+    assert not any(e.evidence and e.evidence.retargeted for e in events)
 
 
 def test_a_nodes_slot_map_and_robot_slot_are_typed_and_saved_only_when_set() -> None:
@@ -347,14 +350,14 @@ def test_after_a_repair_the_world_keeps_its_slots_and_the_new_plan_is_re_targete
     at = next(i for i, e in enumerate(executor.events) if e.kind == REPAIR)
     feet = [
         e for e in executor.events[at:]
-        if e.action is not None and e.action.startswith("attach(") and e.motion is not None
+        if isinstance(e.action, Attach) and e.motion is not None
     ]  # fmt: skip
-    assert {e.action for e in feet} == {"attach(left,leg1,foot)", "attach(right,leg2,foot)"}
+    assert {str(e.action) for e in feet} == {"attach(left,leg1,foot)", "attach(right,leg2,foot)"}
     real = {"leg1": "c2", "leg2": "c1"}
     with World(scenario) as world:
         for e in feet:
-            assert e.motion is not None and e.action is not None
-            leg = e.action.split(",")[1]
+            assert e.motion is not None and isinstance(e.action, Attach)
+            leg = e.action.onto
             end = world.endpoint(e.motion.arm, e.motion.path[-1])
             assert math.dist(end, world.site_target(Site("top", real[leg]))) <= POS_TOL
 

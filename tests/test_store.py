@@ -14,7 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from app.execution.events import Evidence, ExecutionEvent, Outcome
+from app.execution.events import ExecutionEvent, Outcome
+from app.execution.evidence import EVIDENCE_VERSION, CameraReading, Evidence, Truth
 from app.execution.walker import Executor
 from app.sessions.processes import process_start
 from app.sessions.store import (
@@ -22,12 +23,12 @@ from app.sessions.store import (
     SessionStore,
     UnknownSession,
     default_data_dir,
-    is_plan_path,
-    plan_hash,
+    exported_event,
 )
-from app.sources.outcomes import ExpectedSource, RandomSource
+from app.sources.outcomes import RandomSource
 from planner.plan.model import Plan, PlanNode, ScenarioRef
 from tests.plan_fixtures import default_plan
+from tests.plan_paths import is_plan_path, plan_hash
 
 
 @pytest.fixture(scope="module")
@@ -95,18 +96,25 @@ def test_each_event_is_committed_as_it_happens(plan: Plan, tmp_path: Path) -> No
     with SessionStore(tmp_path) as store:
         session = store.start(plan)
         reader = sqlite3.connect(tmp_path / DB_NAME)
-        seen: list[int] = []
+        seen: list[tuple[int, int]] = []
 
         def check(event: ExecutionEvent) -> None:
-            # Another connection sees every event at once, with no commit by the caller.
-            count = reader.execute(
-                "select count(*) from events where session_id = ?", [session]
-            ).fetchone()[0]
-            seen.append(count)
+            # Another connection sees every event at once, with what decided it, with no
+            # commit by the caller.
+            seen.append(
+                tuple(
+                    reader.execute(
+                        f"select count(*) from {table} where session_id = ?", [session]
+                    ).fetchone()[0]
+                    for table in ("events", "evidence")
+                )
+            )
 
-        executor = Executor(plan, ExpectedSource(), [store.recorder(session), check])
+        executor = Executor(plan, _EvidencedSource(), [store.recorder(session), check])
         store.finish(session, executor.run())
-        assert seen == list(range(1, len(executor.events) + 1))
+        answered = [e.evidence is not None for e in executor.events]
+        assert seen == [(k + 1, sum(answered[: k + 1])) for k in range(len(answered))]
+        assert sum(answered) > 0
         assert store.events(session) == executor.events
 
 
@@ -178,11 +186,11 @@ def test_export_round_trip(plan: Plan, tmp_path: Path) -> None:
         events = store.events(session)
     again = json.loads(json.dumps(doc))
     assert again == doc
-    assert doc["format"] == "tandem-session/1"
+    assert doc["format"] == "tandem-session/2"
     assert doc["plan"] == plan.to_json()
     assert doc["session"]["id"] == session and doc["session"]["note"] == "round trip"
     assert doc["session"]["result"] == "goal"
-    assert [ExecutionEvent(**e) for e in doc["events"]] == events
+    assert [exported_event(e) for e in doc["events"]] == events
     stored = Plan.from_json(doc["plan"])
     assert is_plan_path(stored, [(e["node"], e["outcome"]) for e in doc["events"]])
 
@@ -202,7 +210,9 @@ class _EvidencedSource:
 
     def choose(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Outcome:
         picture = b"\xff\xd8" + node_id.encode() + b"\xff\xd9"
-        return Outcome(options[0], "camera", 0.9, "", Evidence({"truth": options[0]}, picture))
+        reading = CameraReading("label", options[0], 0.9, "seen", 5, 12, 0.1, {"leg1": "held"})
+        evidence = Evidence(camera=reading, truth=Truth(options[0]), jpeg=picture)
+        return Outcome(options[0], "camera", 0.9, "", evidence)
 
 
 def test_evidence_is_stored_with_its_event(plan: Plan, tmp_path: Path) -> None:
@@ -214,13 +224,22 @@ def test_evidence_is_stored_with_its_event(plan: Plan, tmp_path: Path) -> None:
     assert answered and all(e.evidence is not None for e in answered)
     assert all(e.evidence is None for e in events if e.outcome is None)
     first = answered[0]
-    assert first.evidence is not None and first.evidence.detail == {"truth": first.outcome}
+    assert first.evidence is not None and first.evidence.truth == Truth(str(first.outcome))
+    assert first.evidence.camera is not None and first.evidence.camera.value == first.outcome
+    assert first.evidence.camera.placements == {"leg1": "held"}
     assert first.evidence.jpeg is None  # pictures only when asked
+    # The evidence table holds the versioned JSON, one row per answered event.
+    with sqlite3.connect(tmp_path / DB_NAME) as db:
+        rows = db.execute("select seq, detail from evidence where session_id = ?", [sid])
+        stored = {seq: json.loads(detail) for seq, detail in rows}
+    assert sorted(stored) == [e.seq for e in answered]
+    assert stored[first.seq]["version"] == EVIDENCE_VERSION
+    assert stored[first.seq]["truth"] == {"label": first.outcome, "said": []}
     assert store.evidence_jpeg(sid, first.seq) == b"\xff\xd8" + first.node.encode() + b"\xff\xd9"
     with_pictures = store.events(sid, with_jpeg=True)
     assert [e.evidence.jpeg is not None for e in with_pictures if e.evidence] == [True] * len(
         answered
     )
     exported = store.export(sid)["events"]
-    assert exported[first.seq]["evidence"] == {"detail": {"truth": first.outcome}, "jpeg": True}
+    assert exported[first.seq]["evidence"] == {**stored[first.seq], "jpeg": True}
     store.close()

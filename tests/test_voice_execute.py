@@ -18,12 +18,12 @@ import pytest
 
 from app.cli.main import main
 from app.execution.events import ExecutionEvent
-from app.sessions.store import SessionStore, is_plan_path
+from app.sessions.store import SessionStore
 from planner.plan.model import Plan
 from tests.plan_fixtures import KOREAN_DEFAULT, korean_plan, tandem
+from tests.plan_paths import is_plan_path
 
 SEEDS = range(20)
-QUESTION_KEYS = {"answered_by", "heard", "confidence", "meaning", "tries", "engine", "truth"}
 
 
 def _questions(plan: Plan, events: list[ExecutionEvent]) -> list[ExecutionEvent]:
@@ -41,24 +41,27 @@ def _check_session(plan: Plan, store: SessionStore, session_id: int) -> Counter[
         if event.kind != "communication":
             continue
         assert event.evidence is not None, event
-        detail = event.evidence.detail
-        # Every sentence was spoken, by espeak-ng here (offline), and kept.
-        assert detail["engine"] == "espeak" and detail.get("said", detail.get("heard")) is not None
+        # Every sentence was spoken, by espeak-ng here (offline), and kept: by the
+        # narrator, or (a question) by the voice that then listened.
+        spoken, hearing = event.evidence.spoken, event.evidence.voice
+        if spoken is not None:
+            assert spoken.engine == "espeak" and spoken.said
+        else:
+            assert hearing is not None and hearing.engine == "espeak", event
     for event in _questions(plan, events):
         assert event.evidence is not None
-        detail = event.evidence.detail
-        assert QUESTION_KEYS <= set(detail), detail
-        truth = detail["truth"]
-        assert isinstance(truth, dict) and truth["answer"] in ("yes", "no") and truth["said"]
+        hearing, truth = event.evidence.voice, event.evidence.truth
+        assert hearing is not None and hearing.tries >= 1 and hearing.engine == "espeak"
+        assert truth is not None and truth.label in ("yes", "no") and truth.said
         if event.source == "voice":
-            assert detail["answered_by"] == "voice" and detail["meaning"] == event.outcome
-            assert 1 <= detail["tries"] <= 2
+            assert hearing.answered_by == "voice" and hearing.meaning == event.outcome
+            assert 1 <= hearing.tries <= 2
             # The dangerous case would be a wrong answer taken: the truth says none was.
-            assert truth["answer"] == event.outcome, detail
+            assert truth.label == event.outcome, hearing
             counts["voice"] += 1
         else:
-            assert detail["answered_by"] == "fallback" and event.source == "random"
-            assert detail["tries"] == 2 and detail["meaning"] is None
+            assert hearing.answered_by == "fallback" and event.source == "random"
+            assert hearing.tries == 2 and hearing.meaning is None
             counts["fallback"] += 1
     return counts
 
@@ -103,8 +106,9 @@ def test_a_real_cli_run_and_its_exported_session(tmp_path: Path) -> None:
     exported = tandem("sessions", "export", str(session), env=env)
     assert exported.returncode == 0, exported.stderr
     events = json.loads(exported.stdout)["events"]
-    asked = [e for e in events if e["evidence"] and "answered_by" in e["evidence"]["detail"]]
-    assert asked and all(e["evidence"]["detail"]["truth"]["said"] for e in asked)
+    asked = [e for e in events if e["evidence"] and "voice" in e["evidence"]]
+    assert asked and all(e["evidence"]["truth"]["said"] for e in asked)
+    assert all(e["evidence"]["version"] == 2 for e in asked)
     assert all(e["source"] in ("voice", "random") for e in asked)
     # The listing says, under each question, what was heard and really said.
     shown = tandem("sessions", "show", str(session), env=env)
@@ -127,9 +131,9 @@ def test_a_scripted_human_answers_as_scripted(tmp_path: Path) -> None:
     with SessionStore(data) as store:
         (session,) = store.list_sessions()
         truths = [
-            e.evidence.detail["truth"]["answer"]
+            e.evidence.truth.label
             for e in store.events(session.id)
-            if e.evidence is not None and "truth" in e.evidence.detail
+            if e.evidence is not None and e.evidence.truth is not None
         ]
     assert truths[:2] == ["no", "no"]
 
@@ -191,15 +195,17 @@ def test_a_wav_folder_answers_then_runs_dry_and_the_fallback_answers(tmp_path: P
     assert rest
     assert first.evidence is not None
     assert (first.source, first.outcome) == ("voice", "no")
-    assert first.evidence.detail["attempts"][0]["audio"].endswith("01.wav")
+    assert first.evidence.voice is not None
+    assert str(first.evidence.voice.attempts[0].audio).endswith("01.wav")
     # The folder has no more answers: each later question is refused twice, then the
     # seeded fallback answers, and the session says so.
     for event in rest:
         assert event.evidence is not None and event.source == "random"
-        detail = event.evidence.detail
-        assert detail["answered_by"] == "fallback" and detail["tries"] == 2
-        assert [a["reason"] for a in detail["attempts"]] == ["silence", "silence"]
-        assert "truth" not in detail  # nobody simulated: no truth to tell
+        hearing = event.evidence.voice
+        assert hearing is not None and hearing.answered_by == "fallback" and hearing.tries == 2
+        assert hearing.fallback == "random"
+        assert [a.reason for a in hearing.attempts] == ["silence", "silence"]
+        assert event.evidence.truth is None  # nobody simulated: no truth to tell
 
 
 def test_speak_local_without_speakers_says_so_once_and_goes_on(

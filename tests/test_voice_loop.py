@@ -15,8 +15,9 @@ import pytest
 
 from app.execution.narration import plan_language
 from app.execution.walker import Executor
+from app.sim.speaker import SimulatedSpeaker
 from app.sources.outcomes import FallbackSource, RandomSource
-from app.sources.voice import SimulatedSpeaker, VoiceSource, is_question
+from app.sources.voice import VoiceSource, is_question
 from planner.plan.model import Plan
 from speech.recognition import Recognizer
 from speech.sources import SimulatedVoice

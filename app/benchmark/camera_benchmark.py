@@ -85,8 +85,9 @@ def flat_out_run(scenario: Scenario, plan: Plan, seed: int, times: Times) -> tup
 
 def _collect(executor: Executor, human: SimulatedHuman, times: Times) -> tuple[int, int]:
     for event in executor.events:
-        if event.source == "camera" and event.evidence is not None:
-            times[_kind(event.action)].append(float(event.evidence.detail["camera"]["seconds"]))
+        camera = event.evidence.camera if event.evidence is not None else None
+        if event.source == "camera" and camera is not None:
+            times[_kind(None if event.action is None else str(event.action))].append(camera.seconds)
     return human.agreement(executor.events)
 
 

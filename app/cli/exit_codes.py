@@ -15,7 +15,7 @@ from app.sessions.store import UnknownSession
 from app.sources.outcomes import ScriptError
 from planner.scenario.loading import ScenarioError
 from planner.search.cluster import ClusterUnavailable
-from planner.search.hcp import DeadEnd
+from planner.search.errors import DeadEnd
 
 
 class BadInput(Exception):

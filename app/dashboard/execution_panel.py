@@ -182,8 +182,8 @@ class ExecutionPanel:
         self.start_button.disabled = bool(self.refusal)
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = True
-        if session_id is not None:
-            self.events.publish(ExecutionFinished(session_id, str(result)))
+        if session_id is not None and result is not None:
+            self.events.publish(ExecutionFinished(session_id, result))
 
     def _pause_resume(self) -> None:
         if self.executor is None:
@@ -201,7 +201,7 @@ class ExecutionPanel:
         if event.motion:
             self._play(event.motion, float(self.speed.value))
             self.stage.show_world(event.node)
-        words = event.text or event.action or ""
+        words = event.text or (str(event.action) if event.action is not None else "")
         if event.source == "camera":
             words += f" — **answered by the camera** ({event.confidence})"
         self._log.append(f"`{event.node}` {event.action or 'goal'}: {words}")

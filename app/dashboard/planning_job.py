@@ -12,7 +12,8 @@ from planner.plan.model import Plan
 from planner.planning import PlanningCancelled, plan_scenario
 from planner.scenario.model import Scenario
 from planner.search.cluster import ClusterUnavailable
-from planner.search.hcp import ConditionalPlanner, DeadEnd, Progress
+from planner.search.errors import DeadEnd
+from planner.search.hcp import ConditionalPlanner, Progress
 from planner.search.plan_building import build_plan
 
 JobState = Literal["idle", "planning", "done", "cancelled", "failed"]

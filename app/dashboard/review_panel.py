@@ -132,8 +132,9 @@ class ReviewPanel:
         current = first
         for event in events:
             plans.append(current)
-            if event.kind == REPAIR and event.evidence is not None:
-                current = self.store.plan(str(event.evidence.detail["plan"]))
+            replanned = event.evidence.replanned if event.evidence is not None else None
+            if event.kind == REPAIR and replanned is not None:
+                current = self.store.plan(replanned.plan)
         return plans
 
     def _timeline_moved(self, event: Any) -> None:
@@ -177,7 +178,7 @@ class ReviewPanel:
             return
         self.frame.image = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
         self.frame.visible = True
-        truth = evidence.detail.get("truth")
+        truth = evidence.truth.label if evidence.truth is not None else None
         agrees = (
             ""
             if truth is None

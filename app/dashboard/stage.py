@@ -28,7 +28,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
-from app.execution.events import ExecutionEvent, OutcomeSource
+from app.execution.events import ExecutionEvent, OutcomeSource, Result
 from planner.plan.model import Plan, PlanNode
 from planner.scenario.model import Scenario
 
@@ -151,7 +151,7 @@ class ExecutionFinished:
     """The execution recorded as `session_id` ended with `result` (goal, aborted, ...)."""
 
     session_id: int
-    result: str
+    result: Result
 
 
 class CameraAnswers(Protocol):

@@ -9,10 +9,11 @@ pybullet.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol
+from typing import Literal, Protocol, get_args
 
+from app.execution.evidence import Evidence
 from app.execution.surprises import Surprise
 from planner.plan.model import Motion, Plan, PlanNode
 from planner.vocabulary import (
@@ -27,22 +28,21 @@ from planner.vocabulary import (
     State,
 )
 
-REPAIR = "repair"  # the kind of the event where an execution changes plans
-
 Node = PlanNode
 
-
-@dataclass(frozen=True)
-class Evidence:
-    """What decided an answer, kept with the session for the review.
-
-    `detail` is JSON-ready (the words heard, the engine that spoke, what the
-    camera saw, what the simulated human really did); `jpeg` is a small
-    picture of the frame that decided a camera answer.
-    """
-
-    detail: Mapping[str, Any] = field(default_factory=dict)
-    jpeg: bytes | None = field(default=None, repr=False)
+# What an event is: the kind of the plan node run, or one of the execution's own.
+# `repair`: the execution changed plans after a surprise (its evidence says which);
+# `interrupted`: the walk stopped at this node for the reason in its text (the
+# program stopping, not a step of the plan).
+EventKind = Literal["actuation", "sensing", "communication", "goal", "repair", "interrupted"]
+EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
+REPAIR: EventKind = "repair"
+INTERRUPTED: EventKind = "interrupted"
+# Who answered a branching node: a click in the dashboard, the console's numbered
+# choices, a seeded random choice, a script, the planner's hoped outcome, the
+# camera or the voice.
+AnswerSource = Literal["click", "console", "random", "scripted", "expected", "camera", "voice"]
+ANSWER_SOURCES: tuple[AnswerSource, ...] = get_args(AnswerSource)
 
 
 @dataclass(frozen=True)
@@ -50,7 +50,7 @@ class Outcome:
     """The outcome that happened at a node, and who said so."""
 
     label: str
-    source: str  # "click", "random", "scripted", "expected", "console", "camera", "voice"
+    source: AnswerSource
     confidence: float | None = None
     text: str = ""
     evidence: Evidence | None = None
@@ -70,17 +70,19 @@ class OutcomeError(Exception):
     """A source answered with something that is not an outcome of the node."""
 
 
+# How an execution ended: at a goal leaf, stopped by the operator, stopped by the
+# program (a signal, the dashboard closing), or at a node with no way on.
 Result = Literal["goal", "aborted", "interrupted", "dead-end"]
-RESULTS: tuple[Result, ...] = ("goal", "aborted", "interrupted", "dead-end")
-INTERRUPTED = "interrupted"  # the kind of the last event of an interrupted walk
+RESULTS: tuple[Result, ...] = get_args(Result)
 
 
 @dataclass(frozen=True)
 class ExecutionEvent:
     """One step of an execution: the node run and how it turned out.
 
-    `kind` is the node's kind (actuation, sensing, communication, goal);
-    `outcome` is the branch taken (None after a deterministic node); `text`
+    `kind` is the node's kind, or `repair`/`interrupted` (see `EventKind`);
+    `action` is the node's action (None at a goal and for the execution's own
+    events); `outcome` is the branch taken (None after a deterministic node); `text`
     is what the robot said, or the outcome in words. `motion` (actuation
     only) is the node's `{arm, joints, path}`; it is not stored, the plan has it
     (a re-targeted one is, in the evidence).
@@ -93,10 +95,10 @@ class ExecutionEvent:
     seq: int
     time: float  # seconds since the epoch
     node: str
-    action: str | None
-    kind: str
+    action: Action | None
+    kind: EventKind
     outcome: str | None = None
-    source: str | None = None
+    source: AnswerSource | None = None
     confidence: float | None = None
     text: str | None = None
     motion: Motion | None = field(default=None, compare=False, repr=False)

@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.execution.events import Evidence
+from app.execution.evidence import Evidence, Spoken
 from planner.plan.model import Plan, PlanNode
 from speech.languages import Language, language
 from speech.synthesis import Engine, SynthesisError, Utterance, synthesize
@@ -90,15 +90,16 @@ class RobotVoice:
         if not node.say or (node.outcomes and not self.questions):
             return None
         line = self.say(node_id, node.say)
-        return Evidence(said_detail(line))
+        return Evidence(spoken=spoken(line))
 
 
-def said_detail(line: Line) -> dict[str, object]:
+def spoken(line: Line) -> Spoken:
     """What a session keeps of a spoken line."""
-    detail: dict[str, object] = {"said": line.text, "engine": line.engine}
-    if line.utterance is not None:
-        detail["voice"] = line.utterance.voice
-        detail["duration_s"] = round(line.utterance.duration_s, 2)
-    if line.error is not None:
-        detail["speech_error"] = line.error
-    return detail
+    utterance = line.utterance
+    return Spoken(
+        said=line.text,
+        engine=line.engine,
+        voice=None if utterance is None else utterance.voice,
+        duration_s=None if utterance is None else round(utterance.duration_s, 2),
+        speech_error=line.error,
+    )

@@ -17,7 +17,7 @@ from app.execution.surprises import Surprise
 from planner.plan.model import Plan, PlanNode
 from planner.planning import plan_scenario
 from planner.scenario.model import Scenario
-from planner.search.hcp import DeadEnd
+from planner.search.errors import DeadEnd
 
 
 class Repairer:

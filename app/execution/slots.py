@@ -17,15 +17,19 @@ The walker asks `at` once per node; a click source asks `slot_choices` and
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
-from app.execution.events import Evidence, Outcome, OutcomeError
-from app.execution.surprises import Surprise
+from app.execution.events import Outcome, OutcomeError
+from app.execution.evidence import Evidence, Retargeted, SlotFollowed
+from app.execution.surprises import HumanAttached, Surprise
 from planner.feasibility.scene import Site
 from planner.feasibility.slot_map import SlotError, SlotMap, robot_choice
 from planner.plan.model import Motion, Plan, PlanNode, RobotSlot
 from planner.vocabulary import Action, Hands, SenseHumanAttachingWhere
+
+# Why a motion assumed other slots than the world's and was played all the same.
+NO_PLANNER = "no motion planner"
 
 
 class Retarget(Protocol):
@@ -136,8 +140,8 @@ class Slots:
             self.world.follow(action.onto, outcome.label, real, node.state)
         except SlotError as err:
             raise OutcomeError(f"{node.action} at {node_id}: {err}") from None
-        slot = {"onto": action.onto, "branch": outcome.label, "used": outcome.slot, "real": real}
-        return Evidence({"slot": slot, "slots": self.world.to_json()})
+        slots = self.world.to_json()
+        return Evidence(slot=SlotFollowed(action.onto, outcome.label, outcome.slot, real, slots))
 
     def _point_surprise(self, node: PlanNode, outcome: Outcome) -> Surprise | None:
         """Where the plan puts parts by points (`points = "each"`, facts
@@ -155,7 +159,7 @@ class Slots:
         ):
             return None
         real = self.world.real(action.onto, outcome.slot)
-        return Surprise("attach", (action.part, action.onto, real))
+        return HumanAttached(action.part, action.onto, real)
 
     # -- the robot's motion
 
@@ -176,15 +180,17 @@ class Slots:
         real = self.world.action(node.action), self.world.state(node.state)
         if assumed[0] == real[0] and sorted(assumed[1]) == sorted(real[1]):
             return node.motion, None
-        detail: dict[str, object] = {"slots": self.world.to_json(), "real_action": str(real[0])}
-        if chosen is not None:
-            detail["robot_slot"] = chosen.model_dump(exclude_none=True)
+        retargeted = Retargeted(
+            real_action=str(real[0]),
+            slots=self.world.to_json(),
+            robot_slot=None if chosen is None else chosen.model_dump(exclude_none=True),
+        )
         if self.retarget is None:
-            return node.motion, Evidence({**detail, "retargeted": "no motion planner"})
+            return node.motion, Evidence(retargeted=replace(retargeted, reason=NO_PLANNER))
         motion = self.retarget.motion(*assumed, *real)
         if motion is None:
             return node.motion, None
-        return motion, Evidence({**detail, "retargeted": motion.model_dump()})
+        return motion, Evidence(retargeted=replace(retargeted, motion=motion))
 
     def _take_plans_choice(self, choice: RobotSlot, state: list[str]) -> None:
         """The robot's slot choice the plan made here, where the world lets it."""

@@ -27,7 +27,8 @@ from typing import NamedTuple
 from app.execution.events import (
     INTERRUPTED,
     REPAIR,
-    Evidence,
+    AnswerSource,
+    EventKind,
     ExecutionEvent,
     Outcome,
     OutcomeError,
@@ -37,11 +38,12 @@ from app.execution.events import (
     Result,
     describe,
 )
+from app.execution.evidence import Evidence, Replanned, merged
 from app.execution.slots import Retarget, Slots
 from app.execution.surprises import Surprise, SurpriseError
 from planner.plan.model import Motion, Plan, PlanNode
 
-__all__ = ["INTERRUPTED", "Executor", "Listener", "Narrator", "Repairing", "Retarget", "merged"]
+__all__ = ["INTERRUPTED", "Executor", "Listener", "Narrator", "Repairing", "Retarget"]
 
 Listener = Callable[[ExecutionEvent], None]
 # Plans again after a surprise at a node: the repair, and the new plan's hash.
@@ -50,11 +52,12 @@ Repairing = Callable[[PlanNode, Surprise], tuple[Repair, str]]
 Narrator = Callable[[str, PlanNode], Evidence | None]
 
 
-def merged(first: Evidence | None, second: Evidence | None) -> Evidence | None:
-    """Both evidences in one: `second`'s detail wins a shared key, its picture if any."""
-    if first is None or second is None:
-        return first or second
-    return Evidence({**first.detail, **second.detail}, second.jpeg or first.jpeg)
+def _event_kind(node: PlanNode) -> EventKind:
+    """A node's kind as an event's: a node still open (only in a partial plan, which is
+    never executed) is a dead end."""
+    if node.kind == "open":
+        raise OutcomeError("a partial plan cannot be executed")
+    return node.kind
 
 
 class _Aborted(Exception):
@@ -319,7 +322,9 @@ class Executor:
         """The outcome label for attaching at `point` (the walk follows `point`)."""
         return self.slots.slot_label(node, options, point)
 
-    def _repair(self, node_id: str, node: PlanNode, source: str, surprise: Surprise) -> str | None:
+    def _repair(
+        self, node_id: str, node: PlanNode, source: AnswerSource, surprise: Surprise
+    ) -> str | None:
         """Plans again from what `source` observed and switches to that plan; its root, or
         None (no repair possible: the node is asked again)."""
         try:
@@ -331,17 +336,13 @@ class Executor:
         except (RepairFailed, SurpriseError) as err:
             self._emit(node_id, node, source=source, text=f"surprise ignored: {err}")
             return None
-        detail = {
-            "surprise": str(surprise),
-            "observed": sorted(repair.observed),
-            "plan": digest,
-            "plan_s": round(repair.seconds, 3),
-        }
+        replanned = Replanned(
+            str(surprise), tuple(sorted(repair.observed)), digest, round(repair.seconds, 3)
+        )
         event = ExecutionEvent(
-            seq=len(self.events), time=time.time(), node=node_id,
-            action=None if node.action is None else str(node.action), kind=REPAIR,
-            source=source, text=repair.words, evidence=Evidence(detail),
-            plan=repair.plan,
+            seq=len(self.events), time=time.time(), node=node_id, action=node.action,
+            kind=REPAIR, source=source, text=repair.words,
+            evidence=Evidence(replanned=replanned), plan=repair.plan,
         )  # fmt: skip
         self.events.append(event)
         for listener in self.listeners:
@@ -367,7 +368,7 @@ class Executor:
         node: PlanNode,
         *,
         outcome: str | None = None,
-        source: str | None = None,
+        source: AnswerSource | None = None,
         confidence: float | None = None,
         text: str | None = None,
         motion: Motion | None = None,
@@ -377,8 +378,8 @@ class Executor:
             seq=len(self.events),
             time=time.time(),
             node=node_id,
-            action=None if node.action is None else str(node.action),
-            kind=node.kind,
+            action=node.action,
+            kind=_event_kind(node),
             outcome=outcome,
             source=source,
             confidence=confidence,

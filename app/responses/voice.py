@@ -19,13 +19,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from app.execution.events import Evidence, Outcome, OutcomeSource
+from app.execution.events import Outcome, OutcomeSource
+from app.execution.evidence import merged
 from app.execution.narration import LineListener, RobotVoice
+from app.sim.speaker import SimulatedSpeaker
 from app.sources.outcomes import ScriptedSource
 from app.sources.voice import (
     AttemptListener,
     ListeningListener,
-    SimulatedSpeaker,
     VoiceSource,
     is_question,
 )
@@ -81,8 +82,10 @@ class VoiceAnswers:
         if answer is None:
             return None
         heard = self.voice.evidence(node_id)
-        detail = {**heard.detail, "answered_by": "fallback", "fallback": answer.source}
-        return replace(answer, evidence=Evidence(detail))
+        hearing = heard.voice
+        if hearing is not None:
+            hearing = replace(hearing, answered_by="fallback", fallback=answer.source)
+        return replace(answer, evidence=merged(answer.evidence, replace(heard, voice=hearing)))
 
     def _by_voice(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Outcome | None:
         try:

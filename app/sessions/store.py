@@ -17,7 +17,7 @@ import socket
 import sqlite3
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from datetime import date, datetime
@@ -27,10 +27,12 @@ from typing import Any
 from sqlite_utils import Database
 from sqlite_utils.db import Table
 
-from app.execution.events import INTERRUPTED, Evidence, ExecutionEvent
+from app.execution.events import INTERRUPTED, ExecutionEvent, Result
+from app.execution.evidence import Evidence
 from app.sessions.database import StoreError, open_database, unusable
 from app.sessions.processes import boot_id, owner_alive
 from planner.plan.model import Plan
+from planner.vocabulary import parse_action
 
 # Stored plans whose hash is remembered, so the same plan object is not
 # serialised again (large plans take tens of milliseconds); bounded, so a
@@ -38,7 +40,9 @@ from planner.plan.model import Plan
 _KNOWN_PLANS = 8
 
 DB_NAME = "sessions.db"
-EXPORT_FORMAT = "tandem-session/1"
+# /2: events' evidence is the versioned JSON of app.execution.evidence (with "jpeg":
+# whether a picture is stored); /1 had the flat mapping under "detail".
+EXPORT_FORMAT = "tandem-session/2"
 
 
 class UnknownSession(KeyError):
@@ -54,7 +58,7 @@ class SessionRecord:
     plan_hash: str
     started: float
     ended: float | None
-    result: str | None
+    result: Result | None  # None while it runs
     note: str | None
     pid: int | None
     host_boot: str | None
@@ -86,36 +90,6 @@ def canonical_json(plan: Plan | Mapping[str, Any]) -> str:
     """The plan as canonical JSON: sorted keys, no spaces, UTF-8 as is."""
     doc = plan.to_json() if isinstance(plan, Plan) else plan
     return json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
-
-
-def plan_hash(plan: Plan | Mapping[str, Any]) -> str:
-    """sha256 of the canonical JSON of the plan."""
-    return hashlib.sha256(canonical_json(plan).encode("utf-8")).hexdigest()
-
-
-def is_plan_path(
-    plan: Plan, path: Sequence[tuple[str, str | None]], *, complete: bool = True
-) -> bool:
-    """Whether `path` [(node, outcome)] follows the plan from its root.
-
-    `complete`: it must end at a goal leaf; otherwise a prefix is enough.
-    """
-    nodes = plan.nodes
-    if not path:
-        return not complete
-    if path[0][0] != plan.root:
-        return False
-    for (node_id, outcome), (next_id, _) in zip(path, path[1:], strict=False):
-        node = nodes.get(node_id)
-        if node is None or node.child(outcome) != next_id:
-            return False
-    last_id, last_outcome = path[-1]
-    last = nodes.get(last_id)
-    if last is None:
-        return False
-    if complete:
-        return last.kind == "goal" and last_outcome is None and not last.children
-    return True
 
 
 class SessionStore:
@@ -271,7 +245,7 @@ class SessionStore:
             "seq": event.seq,
             "time": event.time,
             "node": event.node,
-            "action": event.action,
+            "action": None if event.action is None else str(event.action),
             "kind": event.kind,
             "outcome": event.outcome,
             "source": event.source,
@@ -291,7 +265,7 @@ class SessionStore:
                     [
                         session_id,
                         event.seq,
-                        json.dumps(dict(evidence.detail), sort_keys=True),
+                        json.dumps(evidence.to_json(), sort_keys=True),
                         evidence.jpeg,
                     ],
                 )
@@ -300,7 +274,7 @@ class SessionStore:
         """A listener for `Executor` that stores each event of `session_id`."""
         return lambda event: self.record(session_id, event)
 
-    def finish(self, session_id: int, result: str, ended: float | None = None) -> None:
+    def finish(self, session_id: int, result: Result, ended: float | None = None) -> None:
         with self._writing():
             self._table("sessions").update(
                 session_id, {"result": result, "ended": time.time() if ended is None else ended}
@@ -385,14 +359,14 @@ class SessionStore:
                 seq=r["seq"],
                 time=r["time"],
                 node=r["node"],
-                action=r["action"],
+                action=None if r["action"] is None else parse_action(r["action"]),
                 kind=r["kind"],
                 outcome=r["outcome"],
                 source=r["source"],
                 confidence=r["confidence"],
                 text=r["text"],
                 evidence=(
-                    Evidence(json.loads(r["evidence_detail"] or "{}"), r["evidence_jpeg"])
+                    Evidence.from_json(json.loads(r["evidence_detail"] or "{}"), r["evidence_jpeg"])
                     if r["has_evidence"]
                     else None
                 ),
@@ -427,23 +401,50 @@ class SessionStore:
     def export(self, session_id: int) -> dict[str, Any]:
         """The session, its events and its plan, as one JSON-ready document."""
         record = self.get(session_id)
-        events = []
-        for event in self.events(session_id, with_jpeg=True):
-            row = asdict(event)
-            row.pop("motion")
-            evidence = event.evidence
-            row["evidence"] = (
-                None
-                if evidence is None
-                else {"detail": dict(evidence.detail), "jpeg": evidence.jpeg is not None}
-            )
-            events.append(row)
+        events = [export_event(e) for e in self.events(session_id, with_jpeg=True)]
         return {
             "format": EXPORT_FORMAT,
             "session": record.to_json(),
             "events": events,
             "plan": self.plan_doc(record.plan_hash),
         }
+
+
+def export_event(event: ExecutionEvent) -> dict[str, Any]:
+    """An event as the export writes it: its fields, the action as text, the evidence in
+    its versioned JSON form with whether a picture is stored."""
+    evidence = event.evidence
+    return {
+        "seq": event.seq,
+        "time": event.time,
+        "node": event.node,
+        "action": None if event.action is None else str(event.action),
+        "kind": event.kind,
+        "outcome": event.outcome,
+        "source": event.source,
+        "confidence": event.confidence,
+        "text": event.text,
+        "evidence": (
+            None if evidence is None else {**evidence.to_json(), "jpeg": evidence.jpeg is not None}
+        ),
+    }
+
+
+def exported_event(row: Mapping[str, Any]) -> ExecutionEvent:
+    """The event of an exported row (its evidence without the picture)."""
+    evidence = row.get("evidence")
+    return ExecutionEvent(
+        seq=row["seq"],
+        time=row["time"],
+        node=row["node"],
+        action=None if row["action"] is None else parse_action(row["action"]),
+        kind=row["kind"],
+        outcome=row["outcome"],
+        source=row["source"],
+        confidence=row["confidence"],
+        text=row["text"],
+        evidence=None if evidence is None else Evidence.from_json(evidence),
+    )
 
 
 def _table(db: Database, name: str) -> Table:

@@ -1,56 +1,56 @@
 """Evidence in words: one line for a session listing (`tandem sessions show`).
 
 Kept apart from the sources that write the evidence, so listing sessions
-imports no speech or camera code. A camera's evidence has `camera` (its
-reading) and, in simulated runs, `truth` (the label the simulated human acted
-out); a voice's has `answered_by`, `heard`, `tries` and, simulated, `truth`
-(what the human said); a spoken line has `engine`.
+imports no speech or camera code: it reads the typed records of
+`app.execution.evidence` (a camera reading, a voice hearing, a spoken line and,
+in simulated runs, what the simulated human really did).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 
 from app.execution.events import ExecutionEvent
 
 
 def summary(event: ExecutionEvent) -> str | None:
     """What decided the event's answer and what was said, if its evidence says (else None)."""
-    if event.evidence is None:
+    evidence = event.evidence
+    if evidence is None:
         return None
-    detail = event.evidence.detail
     parts: list[str] = []
-    camera = detail.get("camera")
-    if isinstance(camera, Mapping):
+    camera = evidence.camera
+    if camera is not None:
         # The camera's reason is already in the event's text.
         parts.append(
-            f"camera: confidence {camera.get('confidence')}, "
-            f"{camera.get('frames')} frames, {camera.get('seconds')} s"
+            f"camera: confidence {camera.confidence}, {camera.frames} frames, {camera.seconds} s"
         )
-    if event.evidence.jpeg is not None:
-        parts.append(f"frame {len(event.evidence.jpeg) / 1024:.1f} kB JPEG")
-    if "answered_by" in detail:
-        tries = detail.get("tries", 0)
+    if evidence.jpeg is not None:
+        parts.append(f"frame {len(evidence.jpeg) / 1024:.1f} kB JPEG")
+    voice = evidence.voice
+    if voice is not None:
+        tries = f"{voice.tries} {'try' if voice.tries == 1 else 'tries'}"
         parts.append(
-            f"heard '{detail.get('heard') or '-'}' (confidence {detail.get('confidence', 0.0)}, "
-            f"{tries} {'try' if tries == 1 else 'tries'}), answered by {detail['answered_by']}"
+            f"heard '{voice.heard or '-'}' (confidence {voice.confidence}, {tries}), "
+            f"answered by {voice.answered_by}"
         )
-    truth = detail.get("truth")
-    if isinstance(truth, Mapping):
-        said = " / ".join(str(w) for w in truth.get("said", ()))
-        parts.append(f"the simulated human said '{said}' ({truth.get('answer')})")
-    elif isinstance(truth, str):
-        parts.append(f"truth {truth}: " + ("agrees" if truth == event.outcome else "DISAGREES"))
-    if "engine" in detail:
-        parts.append(f"spoken by {detail['engine']}")
+    truth = evidence.truth
+    if truth is not None and truth.said:
+        parts.append(f"the simulated human said '{' / '.join(truth.said)}' ({truth.label})")
+    elif truth is not None:
+        agrees = "agrees" if truth.label == event.outcome else "DISAGREES"
+        parts.append(f"truth {truth.label}: {agrees}")
+    engine = evidence.spoken.engine if evidence.spoken else voice.engine if voice else None
+    if engine is not None:
+        parts.append(f"spoken by {engine}")
     return "; ".join(parts) or None
 
 
 def camera_agreement(events: Sequence[ExecutionEvent]) -> tuple[int, int]:
     """(camera answers equal to the stored truth, camera answers with a truth)."""
     judged = [
-        e.outcome == e.evidence.detail["truth"]
+        e.outcome == e.evidence.truth.label
         for e in events
-        if e.source == "camera" and e.evidence is not None and "truth" in e.evidence.detail
+        if e.source == "camera" and e.evidence is not None and e.evidence.truth is not None
     ]
     return sum(judged), len(judged)

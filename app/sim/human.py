@@ -30,6 +30,7 @@ from perception.layout import BenchLayout
 from planner.feasibility.scene import PartBox
 from planner.plan.model import Plan, PlanNode
 from planner.vocabulary import (
+    Action,
     Attach,
     Attached,
     Hands,
@@ -45,7 +46,6 @@ from planner.vocabulary import (
     SenseLengthOf,
     SenseShapeOf,
     Unhold,
-    parse_action,
     parse_fluent,
 )
 
@@ -198,7 +198,7 @@ class HumanAct:
     """What the human really did at a sensing node: the outcome it makes true."""
 
     node_id: str
-    action: str
+    action: Action | None
     label: str
 
 
@@ -248,7 +248,7 @@ class SimulatedHuman:
         if label is None:
             return None
         self.did[node_id] = label
-        self.acts.append(HumanAct(node_id, str(node.action), label))
+        self.acts.append(HumanAct(node_id, node.action, label))
         return label
 
     # --- before the camera looks (app.sources.camera.BeforeLook) --------------------
@@ -345,8 +345,7 @@ class SimulatedHuman:
             return
         if event.action is None or event.kind == "sensing":
             return
-        action = parse_action(event.action)
-        match action:
+        match event.action:
             case Hold(arm, part):
                 self.world.robot_hold(arm, part)
             case Attach(arm, onto, slot):

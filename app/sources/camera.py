@@ -30,7 +30,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from app.execution.events import Evidence, Node, Outcome, describe
+from app.execution.events import AnswerSource, Node, Outcome, describe
+from app.execution.evidence import CameraDecision, CameraReading, Evidence, Truth
 from app.execution.surprises import Surprise
 from app.sources.camera_feed import View, ViewFeed, settle_frames
 from app.sources.camera_reading import Reading, is_sensing, outcome_of, where_words
@@ -97,19 +98,21 @@ def outlines(world: WorldEstimate) -> dict[str, str]:
     }
 
 
-def _seen(decided: tuple[str, str], reading: Reading, view: View, look: Look) -> dict[str, Any]:
-    """The evidence of a camera reading; `decided` is what it said ("label" or "surprise")."""
-    faces = outlines(view.world)
-    return {
-        decided[0]: decided[1],
-        "confidence": round(reading.confidence, 3),
-        "reason": reading.reason,
-        "frames": look.frames,
-        "frame_index": view.frame.index,
-        "seconds": round(look.seconds, 3),
-        "placements": placements(view.world),
-        **({"outlines": faces} if faces else {}),
-    }
+def _seen(
+    decided: CameraDecision, value: str, reading: Reading, view: View, look: Look
+) -> CameraReading:
+    """The evidence of a camera reading: what it decided (a label or a surprise)."""
+    return CameraReading(
+        decided=decided,
+        value=value,
+        confidence=round(reading.confidence, 3),
+        reason=reading.reason,
+        frames=look.frames,
+        frame_index=view.frame.index,
+        seconds=round(look.seconds, 3),
+        placements=placements(view.world),
+        outlines=outlines(view.world),
+    )
 
 
 def camera_outcome(
@@ -123,28 +126,30 @@ def camera_outcome(
     """A camera answer with its evidence: the reading, the deciding frame, and (with a
     simulated human) what the human really did, so agreement is counted from the store."""
     assert reading.label is not None
-    detail: dict[str, Any] = {"camera": _seen(("label", reading.label), reading, view, look)}
-    if truth is not None:
-        detail["truth"] = truth
+    evidence = Evidence(
+        camera=_seen("label", reading.label, reading, view, look),
+        truth=None if truth is None else Truth(truth),
+        jpeg=picture,
+    )
     return Outcome(
         reading.label,
         "camera",
         round(reading.confidence, 3),
         f"{describe(action, reading.label)} (camera: {reading.reason})",
-        Evidence(detail, picture),
+        evidence,
     )
 
 
 def camera_surprise(reading: Reading, view: View, look: Look, picture: bytes) -> Outcome:
     """What the camera saw that fits no outcome: the executor plans again from it."""
     assert reading.surprise is not None
-    seen = _seen(("surprise", str(reading.surprise)), reading, view, look)
+    seen = _seen("surprise", str(reading.surprise), reading, view, look)
     return Outcome(
         "",
         "camera",
         round(reading.confidence, 3),
         f"camera: {reading.reason}",
-        Evidence({"camera": seen}, picture),
+        Evidence(camera=seen, jpeg=picture),
         surprise=reading.surprise,
     )
 
@@ -180,7 +185,7 @@ class CameraSource:
     `timeout_s` seconds, or at once when `interrupt()` is called (an abort).
     """
 
-    name = "camera"
+    name: AnswerSource = "camera"
 
     def __init__(
         self,

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from app.execution.surprises import Surprise
+from app.execution.surprises import HumanAttached, HumanPutDown, HumanTook, Surprise
 from perception.world import PartEstimate, Placement, Where, WorldEstimate
 from planner.vocabulary import (
     Action,
@@ -94,10 +94,10 @@ def outcome_of(action: Action | None, world: WorldEstimate, options: Sequence[st
                 return _fit(p.slot, est.confidence, f"{part} is on {onto} at {p.slot}", options)
             words = f"{part} is {where_words(p)}, not on {onto}"
             if p.where is Where.ATTACHED and p.attached_to is not None and p.slot is not None:
-                surprise = Surprise("attach", (part, p.attached_to, p.slot))
+                surprise = HumanAttached(part, p.attached_to, p.slot)
                 return Reading(None, est.confidence, words, surprise)
             if p.where is Where.ON_BENCH:
-                return Reading(None, est.confidence, words, Surprise("putdown", (part,)))
+                return Reading(None, est.confidence, words, HumanPutDown(part))
             return Reading(None, est.confidence, words)
         case SenseShapeOf(part):
             return _outline_reading(world, part, options)
@@ -124,7 +124,7 @@ def _outline_reading(world: WorldEstimate, part: str, options: Sequence[str]) ->
 
 def _took(part: str, confidence: float) -> Reading:
     words = f"the human holds {part}, which no outcome here expects"
-    return Reading(None, confidence, words, Surprise("take", (part,)))
+    return Reading(None, confidence, words, HumanTook(part))
 
 
 def _fit(label: str, confidence: float, words: str, options: Sequence[str]) -> Reading:

@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import random
 import threading
+import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Protocol
 
-from app.execution.events import Node, Outcome, OutcomeError, OutcomeSource, describe
+from app.execution.events import AnswerSource, Node, Outcome, OutcomeError, OutcomeSource, describe
+from app.execution.evidence import Clicked, Evidence
 from app.execution.surprises import SurpriseError, parse_surprise
 from planner.vocabulary import (
     Action,
@@ -33,7 +35,7 @@ class ScriptError(OutcomeError):
 class ExpectedSource:
     """The outcome the planner hoped for (the node's `expected`), else the first."""
 
-    name = "expected"
+    name: AnswerSource = "expected"
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         if not options:
@@ -46,7 +48,7 @@ class ExpectedSource:
 class RandomSource:
     """A uniform choice among the options; the same seed gives the same choices."""
 
-    name = "random"
+    name: AnswerSource = "random"
 
     def __init__(self, seed: int | None = None) -> None:
         self.seed = seed
@@ -79,7 +81,7 @@ class ScriptedSource:
     node raises `ScriptError` naming the file and the line.
     """
 
-    name = "scripted"
+    name: AnswerSource = "scripted"
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
@@ -150,6 +152,7 @@ class Offer:
     action: Action | None
     options: tuple[str, ...]
     words: tuple[str, ...]
+    since: float = field(default_factory=time.monotonic, compare=False)  # when first offered
 
 
 class SlotChoices(Protocol):
@@ -174,7 +177,7 @@ class ClickSource:
     the next) `choose` return None at once, so an aborted execution is not stuck.
     """
 
-    name = "click"
+    name: AnswerSource = "click"
 
     def __init__(
         self,
@@ -248,8 +251,8 @@ class ClickSource:
             self._cond.wait_for(
                 lambda: self._clicked is not None or self._interrupted, self.timeout
             )
-            label = self._clicked
-            if label is None:
+            label, offer = self._clicked, self._offer
+            if label is None or offer is None:
                 # A timeout, or an interrupt (consumed here: at worst one extra "no answer").
                 self._interrupted = False
                 return None
@@ -257,11 +260,14 @@ class ClickSource:
             self._clicked = None
         if self.on_offer is not None:
             self.on_offer(None)
+        waited = round(time.monotonic() - offer.since, 3)
+        evidence = Evidence(clicked=Clicked(offer.options, waited))
         if slots is not None and choices:
             # A slot of the world was clicked: the branch it falls in, followed there.
             branch = slots.slot_label(node, options, label)
-            return Outcome(branch, self.name, 1.0, describe(action, label), slot=label)
-        return Outcome(label, self.name, 1.0, describe(action, label))
+            words = describe(action, label)
+            return Outcome(branch, self.name, 1.0, words, evidence, slot=label)
+        return Outcome(label, self.name, 1.0, describe(action, label), evidence)
 
 
 class ConsoleSource:
@@ -271,7 +277,7 @@ class ConsoleSource:
     input it has no answer (None).
     """
 
-    name = "console"
+    name: AnswerSource = "console"
 
     def __init__(self, reader: IO[str], writer: IO[str]) -> None:
         self.reader = reader

@@ -16,27 +16,26 @@ came from the voice or, after which refusals, from the fallback:
 `evidence(node_id)` is that record as the session stores it (words, confidence,
 meaning, tries, engine, and what the simulated human really said when one did).
 
-`SimulatedSpeaker` is the simulated human's mouth: told that the robot asked,
-it chooses an answer among the node's options (seeded random, or a script)
-and says one of the language's phrases for it through `SimulatedVoice`. It
-never answers the node itself; the recogniser decides what it said.
+The simulated human's mouth (`app.sim.speaker.SimulatedSpeaker`) is told through
+`on_question` when the robot has asked, and its `truth` fills the evidence; this
+module never imports it.
 """
 
 from __future__ import annotations
 
-import random
 import threading
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
-from app.execution.events import Evidence, Outcome
+from app.execution.events import AnswerSource, Outcome
+from app.execution.evidence import Evidence, HeardAttempt, Truth, VoiceHearing
 from app.execution.narration import RobotVoice
 from planner.plan.model import PlanNode
 from planner.vocabulary import QUESTIONS
 from speech.languages import Language, language
 from speech.recognition import Heard, Recognizer
-from speech.sources import AudioSource, MicrophoneSource, SimulatedVoice
+from speech.sources import AudioSource, MicrophoneSource
 from speech.synthesis import Engine
 
 ANSWERS = ("yes", "no")
@@ -45,7 +44,7 @@ ANSWERS = ("yes", "no")
 # before it listens, on every attempt: how a simulated human knows when to speak.
 QuestionListener = Callable[[str, PlanNode, Sequence[str]], None]
 # What really was said at a node (a simulated human knows), for the evidence.
-TruthOf = Callable[[str], dict[str, object] | None]
+TruthOf = Callable[[str], Truth | None]
 # Told each attempt as it is heard (the dashboard shows the last words).
 AttemptListener = Callable[["Attempt"], None]
 # Told True when listening starts and False when it ends (the listening indicator).
@@ -103,7 +102,7 @@ class VoiceSource:
     asked before giving up to the fallback.
     """
 
-    name = "voice"
+    name: AnswerSource = "voice"
 
     def __init__(
         self,
@@ -221,32 +220,21 @@ class VoiceSource:
         tried = self.attempts.get(node_id, [])
         last = tried[-1] if tried else None
         spoken = [s for s in self.spoken if s.node_id == node_id]
-        detail: dict[str, object] = {
-            "answered_by": "voice" if last is not None and last.accepted else "fallback",
-            "heard": last.heard if last is not None else "",
-            "confidence": round(last.confidence, 3) if last is not None else 0.0,
-            "meaning": last.meaning if last is not None else None,
-            "tries": len(tried),
-            "attempts": [
-                {
-                    "heard": a.heard,
-                    "confidence": round(a.confidence, 3),
-                    "meaning": a.meaning,
-                    "reason": a.reason,
-                    "audio": a.origin,
-                }
+        hearing = VoiceHearing(
+            answered_by="voice" if last is not None and last.accepted else "fallback",
+            heard=last.heard if last is not None else "",
+            confidence=round(last.confidence, 3) if last is not None else 0.0,
+            meaning=last.meaning if last is not None else None,
+            tries=len(tried),
+            attempts=tuple(
+                HeardAttempt(a.heard, round(a.confidence, 3), a.meaning, a.reason, a.origin)
                 for a in tried
-            ],  # fmt: skip
-            "engine": spoken[-1].engine if spoken else "none",
-            "recognizer": f"vosk ({self.language.code}, closed grammar)",
-        }
+            ),
+            engine=spoken[-1].engine if spoken else "none",
+            recognizer=f"vosk ({self.language.code}, closed grammar)",
+        )
         truth = self.truth(node_id) if self.truth is not None else None
-        if truth is not None:
-            detail["truth"] = truth
-        return Evidence(detail)
-
-    def answered_by_voice(self, node_id: str) -> bool:
-        return any(a.accepted for a in self.attempts.get(node_id, ()))
+        return Evidence(voice=hearing, truth=truth)
 
     def summary(self, node_id: str) -> str:
         """One line for a session log: how the question at `node_id` was answered."""
@@ -258,69 +246,3 @@ class VoiceSource:
             for a in tried
         ]
         return "; ".join(parts)
-
-
-@dataclass(frozen=True)
-class Said:
-    """What the simulated human chose to answer at a node, and the words it used."""
-
-    node_id: str
-    label: str
-    phrase: str
-
-
-@dataclass
-class SimulatedSpeaker:
-    """The simulated human answering the robot's questions aloud.
-
-    Seeded: at a question it chooses among the node's yes/no options at
-    random, or takes the next label of `script` while it lasts, and says one
-    of the language's phrases for that answer (chosen at random) into
-    `voice`. Asked again at the same node, it keeps its answer and may word
-    it differently, as a person repeating themselves would. `choices` keeps
-    its answer per node, so agreement with what was recognised can be counted.
-    """
-
-    voice: SimulatedVoice
-    seed: int | None = None
-    script: Sequence[str] = ()
-    choices: dict[str, str] = field(default_factory=dict)
-    said: list[Said] = field(default_factory=list)
-
-    def __post_init__(self) -> None:
-        self._random = random.Random(self.seed)
-        self._script: Iterator[str] = iter(self.script)
-
-    def __call__(self, node_id: str, node: PlanNode, options: Sequence[str]) -> None:
-        self.hear(node_id, node, options)
-
-    def hear(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Said:
-        """The robot asked at `node_id`: choose (once per node) and say the answer."""
-        label = self.choices.get(node_id)
-        if label is None:
-            label = self._choose(options)
-            self.choices[node_id] = label
-        words = self.voice.language.yes_words if label == "yes" else self.voice.language.no_words
-        phrase = self._random.choice(words)
-        self.voice.say(phrase)
-        said = Said(node_id, label, phrase)
-        self.said.append(said)
-        return said
-
-    def truth(self, node_id: str) -> dict[str, object] | None:
-        """What it really answered at `node_id` and the words it used, if it was asked."""
-        if node_id not in self.choices:
-            return None
-        words = [s.phrase for s in self.said if s.node_id == node_id]
-        return {"answer": self.choices[node_id], "said": words}
-
-    def _choose(self, options: Sequence[str]) -> str:
-        answers = [o for o in options if o in ANSWERS]
-        if not answers:
-            raise ValueError(f"no yes/no answer among {', '.join(options)}")
-        scripted = next(self._script, None)
-        if scripted is not None:
-            if scripted not in answers:
-                raise ValueError(f"scripted answer '{scripted}' is not one of {', '.join(answers)}")
-            return scripted
-        return self._random.choice(answers)
