@@ -29,14 +29,6 @@ class CameraPose:
     rotation: Matrix
     position: Matrix
 
-    def to_bench(self, point_camera: Matrix) -> Matrix:
-        return np.asarray(self.rotation @ point_camera + self.position, dtype=np.float64)
-
-    def angle_to(self, other: CameraPose) -> float:
-        """Rotation between two poses, degrees."""
-        r = self.rotation.T @ other.rotation
-        return float(np.degrees(np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0))))
-
 
 @dataclass(frozen=True)
 class PartSighting:

@@ -13,7 +13,7 @@ from collections.abc import Set
 from dataclasses import dataclass
 
 from planner.scenario.loading import Scenario
-from planner.search.hcp import DeadEnd
+from planner.search.errors import DeadEnd
 
 # The kinds of cause, in the order they are reported.
 OUT_OF_EVERY_REACH = "outOfEveryReach"

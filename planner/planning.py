@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import gc
 import multiprocessing as mp
-import os
-import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, wait
@@ -15,23 +12,23 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from planner import diagnosis
+from planner.collector_pause import cycle_collection_paused
 from planner.plan.model import Plan
 from planner.scenario.loading import Scenario
+from planner.search.branch_planner import BranchPlanner, Problem, as_solved, ground_ahead
 from planner.search.cluster import check_address
+from planner.search.errors import DeadEnd
 from planner.search.hcp import (
     INLINE_SOLVE_S,
-    BranchPlanner,
     ConditionalPlanner,
     DagNode,
-    DeadEnd,
-    Problem,
+    PlannerSettings,
     Progress,
-    as_solved,
-    ground_ahead,
 )
 from planner.search.hoped_planning import HopedPlanning
 from planner.search.plan_building import build_plan, kind_and_action, number_states
 from planner.search.preprocessing import ProgramRequest, preprocessed
+from planner.search.solving import Engine
 from planner.search.symmetry import Symmetry
 from planner.talk import conversation
 from planner.vocabulary import Attach, State
@@ -43,7 +40,7 @@ if TYPE_CHECKING:
 # Steps per milestone solve; a milestone that needs more is retried with 2x, 4x, 8x.
 # Short horizons keep solves at a few milliseconds (paper-05: 1.7 s at 4, 5.0 s at 8).
 DEFAULT_HORIZON = 4
-# Looking for a plan one step shorter first (`hcp.Problem.short_first`) saves about
+# Looking for a plan one step shorter first (`Problem.short_first`) saves about
 # 30 % of a solve where that plan costs nothing beyond its steps, and costs one
 # more solve where it does: it pays where more than about 70 % of the solves are
 # such. Measured shares: U14 93 %, U10 77 %, paper-05 69 %, paper-03 55 %,
@@ -111,9 +108,10 @@ def bench_checks(
     from planner.feasibility.checks import BenchChecks
 
     workers = workers or mp.cpu_count()
-    with CheckCache(cache_dir) as cache, BenchChecks(
-        scenario, cache=cache, workers=workers
-    ) as checks:
+    with (
+        CheckCache(cache_dir) as cache,
+        BenchChecks(scenario, cache=cache, workers=workers) as checks,
+    ):
         yield checks
 
 
@@ -172,52 +170,6 @@ def _problem(
     return facts, problem
 
 
-@dataclass
-class _CollectorPause:
-    """How many plans are being made, and whether the collector ran before the first."""
-
-    lock: threading.Lock
-    plans: int = 0
-    was_enabled: bool = False
-
-
-_pause = _CollectorPause(threading.Lock())
-
-
-def _collector_back_in_child() -> None:
-    """A process forked while a plan is made (a worker, a check process) collects as
-    usual: the pause is for the planning process's heap, not for theirs."""
-    global _pause
-    if _pause.plans and _pause.was_enabled:
-        gc.enable()
-    _pause = _CollectorPause(threading.Lock())
-
-
-os.register_at_fork(after_in_child=_collector_back_in_child)
-
-
-@contextmanager
-def cycle_collection_paused() -> Iterator[None]:
-    """Python's cycle collector paused in this process while a plan is made.
-    Planning keeps millions of objects alive to its end (states, solve results, the
-    DAG, the plan), and each full collection walks them all: on U18 that was 3.5 of
-    the planning process's 18 CPU-s, 2.5 s of it in building the plan after the
-    search. Planning leaves little cyclic garbage (1,611 objects after U18); it is
-    collected as usual once the last plan being made is done."""
-    with _pause.lock:
-        if _pause.plans == 0:
-            _pause.was_enabled = gc.isenabled()
-            gc.disable()
-        _pause.plans += 1
-    try:
-        yield
-    finally:
-        with _pause.lock:
-            _pause.plans -= 1
-            if _pause.plans == 0 and _pause.was_enabled:
-                gc.enable()
-
-
 def plan_scenario(
     scenario: Scenario,
     *,
@@ -233,7 +185,7 @@ def plan_scenario(
     inline_s: float = INLINE_SOLVE_S,
     symmetry: bool = True,
 ) -> PlanResult:
-    """Plans every contingency of `scenario`; raises `hcp.DeadEnd` if no plan exists.
+    """Plans every contingency of `scenario`; raises `DeadEnd` if no plan exists.
 
     `start` is the state to plan from (default: the scenario's initial state);
     a repair plans from what was observed.
@@ -254,152 +206,203 @@ def plan_scenario(
     if cluster is not None:
         check_address(cluster)  # before the checks: a typo is known at once
     checkers = workers if check_workers is None else check_workers
+    options = _SearchOptions(
+        workers, progress, planner_hook, skip, cluster, window, start, inline_s, symmetry
+    )
     with (
         cycle_collection_paused(),
         bench_checks(scenario, cache_dir, checkers or (1 if cluster else 0)) as checks,
     ):
-        return _plan(
-            scenario,
-            checks,
-            workers,
-            progress,
-            planner_hook,
-            skip,
-            cluster,
-            window,
-            start,
-            inline_s,
-            symmetry,
-        )
+        return _Planning(scenario, checks, options).run()
 
 
-def _plan(
-    scenario: Scenario,
-    checks: BenchChecks | None,
-    workers: int,
-    progress: Callable[[Progress], None] | None,
-    planner_hook: Callable[[ConditionalPlanner], None] | None,
-    skip: tuple[str, ...],
-    cluster: str | None = None,
-    window: int = 0,
-    start: State | None = None,
-    inline_s: float = INLINE_SOLVE_S,
-    symmetry: bool = True,
-) -> PlanResult:
-    t0 = time.perf_counter()
-    large = len(scenario.goal_pairs()) >= LARGE_BENCH_GOALS
-    ahead: Future[BranchPlanner] | None = None
-    first: list[float] = []
-    root = initial_state(scenario) if start is None else start
-    engine = None
-    hoped: tuple[Problem, HopedPlanning] | None = None  # planning on the hoped answers
+@dataclass(frozen=True)
+class _SearchOptions:
+    """`plan_scenario`'s options that shape the search (see there)."""
 
-    def on_first(_: dict[State, DagNode]) -> None:
-        first.append(time.perf_counter() - t0)
-        if checks is not None:
-            checks.release_paths()  # smoothing the reach paths may take the cores now
+    workers: int
+    progress: Callable[[Progress], None] | None
+    planner_hook: Callable[[ConditionalPlanner], None] | None
+    skip: tuple[str, ...]
+    cluster: str | None
+    window: int
+    start: State | None
+    inline_s: float
+    symmetry: bool
 
-    def planner_for(problem: Problem, reachable: frozenset[tuple[str, str]]) -> ConditionalPlanner:
-        planner = ConditionalPlanner(
-            problem,
-            scenario.goal_pairs(),
-            workers=workers,
-            progress=progress,
-            on_first_branch=on_first,
-            window=window,
-            engine=engine,
-            inline_s=inline_s,
-            on_planned=None if checks is None else _motion_prefetch(checks, first),
-            fork_at_start=large,
-            symmetry=Symmetry.of(problem.facts, reachable) if symmetry else None,
-            ahead=ahead,
-        )
-        if planner_hook:
-            planner_hook(planner)
-        return planner
 
-    def hope(answers: dict[tuple[str, str], bool]) -> None:
-        """While the check processes decide, the program of the answers hoped for is
-        ground, and planned on (`planner.search.hoped_planning`)."""
-        nonlocal ahead, hoped
-        if large or cluster is not None:
-            return  # their programs are made elsewhere (preprocessing, actors)
-        from planner.feasibility.scene import Site
+class _Planning:
+    """One plan of a scenario, within its geometric checks (None: declared reach):
+    the reach answers, the search, then the plan built from its DAG."""
 
-        reach = frozenset(p for p, ok in answers.items() if ok and Site.parse(p[1]) is None)
-        sites = {(m, s): ok for (m, t), ok in answers.items() if (s := Site.parse(t)) is not None}
+    def __init__(
+        self, scenario: Scenario, checks: BenchChecks | None, options: _SearchOptions
+    ) -> None:
+        self.t0 = time.perf_counter()
+        self.scenario = scenario
+        self.checks = checks
+        self.options = options
+        self.large = len(scenario.goal_pairs()) >= LARGE_BENCH_GOALS
+        self.root = initial_state(scenario) if options.start is None else options.start
+        self.workers = options.workers  # on a cluster: its CPUs, once connected
+        self.engine: Engine | None = None
+        # The solvers of the hoped answers' problem, grounded in a thread, and the
+        # planning on them (`_hope`), while the check processes decide.
+        self.ahead: Future[BranchPlanner] | None = None
+        self.hoped: HopedPlanning | None = None
+        self.hoped_problem: Problem | None = None
+        self.first_branch_s: float | None = None  # when the first branch was executable
+
+    def run(self) -> PlanResult:
+        """The plan; raises `Unsolvable`, `DeadEnd` explained, or `PlanningCancelled`."""
         try:
-            _, problem = _problem(scenario, reach, _point_facts(sites), start, skip)
-        except Exception:  # noqa: BLE001 - the same facts from the real answers say why
-            return
-        problem = as_solved(problem, workers)
-        ahead = ground_ahead(problem)
-        hoped = (problem, HopedPlanning(planner_for(problem, reach), root))
+            reachable, checks_s = feasible_pairs(self.scenario, self.checks, self._hope)
+            # A cause found before the search is an answer in microseconds, not minutes.
+            diagnosis.check(self.scenario, reachable)
+            facts, problem = self._problem(reachable)
+            planner = self._search(problem, reachable)
+            plan = self._plan(planner, facts, checks_s)
+            first = self.first_branch_s
+            return PlanResult(
+                plan, plan.statistics["plan_s"] if first is None else first, planner.solves
+            )
+        finally:
+            if self.hoped is not None:
+                self.hoped.abandon()  # planning failed or was refused before it ended
+            if self.ahead is not None:
+                # Its thread may still be grounding: clingo must not be inside it when
+                # the process exits (a plan refused by the diagnosis returns at once).
+                wait([self.ahead])
 
-    try:
-        reachable, checks_s = feasible_pairs(scenario, checks, hope)
-        # A cause found before the search is an answer in microseconds, not minutes.
-        diagnosis.check(scenario, reachable)
-        facts, problem = _problem(scenario, reachable, point_facts(scenario, checks), start, skip)
-        if large:
+    def _problem(self, reachable: frozenset[tuple[str, str]]) -> tuple[list[str], Problem]:
+        """The plan's facts and the problem the search solves (on a cluster, its
+        actors are started here)."""
+        points = point_facts(self.scenario, self.checks)
+        facts, problem = _problem(
+            self.scenario, reachable, points, self.options.start, self.options.skip
+        )
+        if self.large:
             problem = replace(problem, programs=preprocessed_programs(problem))
-        if cluster is not None:
+        if self.options.cluster is not None:
             # Imported only here: without --cluster, Ray is never loaded.
             from planner.search import cluster as ray_cluster
 
-            ray_cluster.connect(cluster)
-            workers = workers or ray_cluster.cluster_cpus()
-            # Actors solve with answers that depend on the state alone (hcp.Problem).
-            problem = as_solved(problem, workers, engine=True)
-            engine = ray_cluster.BranchActors(problem, workers)
-        planning = hoped[1] if hoped and hoped[0] == as_solved(problem, workers) else None
-        if hoped is not None and planning is None:
-            hoped[1].abandon()  # answers other than the hoped ones: planned anew
+            ray_cluster.connect(self.options.cluster)
+            self.workers = self.workers or ray_cluster.cluster_cpus()
+            # Actors solve with answers that depend on the state alone (Problem).
+            problem = as_solved(problem, self.workers, engine=True)
+            self.engine = ray_cluster.BranchActors(problem, self.workers)
+        return facts, problem
+
+    def _search(
+        self, problem: Problem, reachable: frozenset[tuple[str, str]]
+    ) -> ConditionalPlanner:
+        """The planner with the complete DAG: the planning on the hoped answers if
+        they were the decided ones, else a search started now."""
+        hoped = self.hoped
+        if hoped is not None and self.hoped_problem != as_solved(problem, self.workers):
+            hoped.abandon()  # answers other than the hoped ones: planned anew
+            hoped = None
         try:
-            if planning is not None:
-                planning.confirm()
-                planner = planning.planner
-                planning.result()
+            if hoped is not None:
+                hoped.confirm()
+                planner = hoped.planner
+                hoped.result()
             else:
-                planner = planner_for(problem, reachable)
-                planner.build(root)
+                planner = self._planner_for(problem, reachable)
+                planner.build(self.root)
         except DeadEnd as err:
-            raise diagnosis.explain(err, scenario, reachable) from err
+            raise diagnosis.explain(err, self.scenario, reachable) from err
         if planner.cancelled:
             raise PlanningCancelled(f"cancelled after {planner.solves} solves")
+        return planner
+
+    def _plan(self, planner: ConditionalPlanner, facts: list[str], checks_s: float) -> Plan:
+        """The plan of the complete DAG, with what the robot says and (geometry) its
+        motions; `checks_s`: the seconds the reach checks took."""
         # What the robot says is found from the DAG, and the plan is built once, with
         # it (U18: building it without and then putting it in took 2 s more).
-        ids = number_states(planner.nodes, root)
+        ids = number_states(planner.nodes, self.root)
         views = [_view(node_id, planner.nodes[state]) for state, node_id in ids.items()]
         plan = build_plan(
             planner.nodes,
-            root,
-            scenario_name=scenario.name,
-            scenario_sha256=scenario.sha256,
+            self.root,
+            scenario_name=self.scenario.name,
+            scenario_sha256=self.scenario.sha256,
             facts=facts,
-            timings=(time.perf_counter() - t0, checks_s),
+            timings=(time.perf_counter() - self.t0, checks_s),
             ids=ids,
-            said=conversation.talk_about(sorted(facts), ids[root], views),
+            said=conversation.talk_about(sorted(facts), ids[self.root], views),
         )
-        plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
-        if checks is not None:
+        plan.statistics["plan_s"] = round(time.perf_counter() - self.t0, 3)
+        if self.checks is not None:
             # Paths only for the actions the plan uses, once it is built: the solver
             # needs reachability alone.
             from planner.feasibility.plan_motions import add_motions
 
             t_motion = time.perf_counter()
-            add_motions(plan, checks)
+            add_motions(plan, self.checks)
             checks_s += time.perf_counter() - t_motion
-            plan.statistics["plan_s"] = round(time.perf_counter() - t0, 3)
+            plan.statistics["plan_s"] = round(time.perf_counter() - self.t0, 3)
             plan.statistics["checks_s"] = round(checks_s, 3)
-        return PlanResult(plan, first[0] if first else plan.statistics["plan_s"], planner.solves)
-    finally:
-        if hoped is not None:
-            hoped[1].abandon()  # planning failed or was refused before it ended
-        if ahead is not None:
-            # Its thread may still be grounding: clingo must not be inside it when
-            # the process exits (a plan refused by the diagnosis returns at once).
-            wait([ahead])
+        return plan
+
+    def _planner_for(
+        self, problem: Problem, reachable: frozenset[tuple[str, str]]
+    ) -> ConditionalPlanner:
+        options = self.options
+        settings = PlannerSettings(
+            workers=self.workers,
+            window=options.window,
+            inline_s=options.inline_s,
+            fork_at_start=self.large,
+            engine=self.engine,
+            symmetry=Symmetry.of(problem.facts, reachable) if options.symmetry else None,
+            ahead=self.ahead,
+        )
+        checks = self.checks
+        prefetch = None if checks is None else _motion_prefetch(checks, self._first_branch_done)
+        planner = ConditionalPlanner(
+            problem,
+            self.scenario.goal_pairs(),
+            settings,
+            progress=options.progress,
+            on_first_branch=self._on_first_branch,
+            on_planned=prefetch,
+        )
+        if options.planner_hook:
+            options.planner_hook(planner)
+        return planner
+
+    def _first_branch_done(self) -> bool:
+        return self.first_branch_s is not None
+
+    def _on_first_branch(self, _: dict[State, DagNode]) -> None:
+        if self.first_branch_s is None:
+            self.first_branch_s = time.perf_counter() - self.t0
+        if self.checks is not None:
+            self.checks.release_paths()  # smoothing the reach paths may take the cores now
+
+    def _hope(self, answers: dict[tuple[str, str], bool]) -> None:
+        """While the check processes decide, the program of the answers hoped for is
+        ground, and planned on (`planner.search.hoped_planning`)."""
+        if self.large or self.options.cluster is not None:
+            return  # their programs are made elsewhere (preprocessing, actors)
+        from planner.feasibility.scene import Site
+
+        reach = frozenset(p for p, ok in answers.items() if ok and Site.parse(p[1]) is None)
+        sites = {(m, s): ok for (m, t), ok in answers.items() if (s := Site.parse(t)) is not None}
+        options = self.options
+        try:
+            _, problem = _problem(
+                self.scenario, reach, _point_facts(sites), options.start, options.skip
+            )
+        except Exception:  # noqa: BLE001 - the same facts from the real answers say why
+            return
+        problem = as_solved(problem, self.workers)
+        self.ahead = ground_ahead(problem)
+        self.hoped_problem = problem
+        self.hoped = HopedPlanning(self._planner_for(problem, reach), self.root)
 
 
 def _view(node_id: str, node: DagNode) -> conversation.NodeView:
@@ -408,7 +411,7 @@ def _view(node_id: str, node: DagNode) -> conversation.NodeView:
 
 
 def _motion_prefetch(
-    checks: BenchChecks, first_branch: list[float]
+    checks: BenchChecks, first_branch_done: Callable[[], bool]
 ) -> Callable[[list[DagNode]], None]:
     """Starts the part-to-part motions of newly planned attach actions in the check
     pool while planning goes on; `add_motions` finds them there once the plan is built.
@@ -424,7 +427,7 @@ def _motion_prefetch(
         if not checks.parallel:
             return  # one process: motions are made when the plan is built
         backlog.extend(n for n in planned if isinstance(n.action, Attach))
-        if not backlog or not first_branch:
+        if not backlog or not first_branch_done():
             return
         attaches = [
             (n, n.action, next(slot_sites(n.action, sorted(n.state))))

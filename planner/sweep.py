@@ -24,7 +24,7 @@ from planner.audit.branches import audit
 from planner.plan.model import STAT_KEYS
 from planner.planning import plan_scenario
 from planner.scenario.loading import parse_scenario
-from planner.search.hcp import DeadEnd
+from planner.search.errors import DeadEnd
 
 Value = str | int | float | bool
 ROW_KEYS = (*STAT_KEYS, "first_branch_s", "plan_s", "checks_s", "violations", "error")

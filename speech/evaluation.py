@@ -53,10 +53,6 @@ class Score:
         return self.correct / self.answers if self.answers else 0.0
 
     @property
-    def rejected_rate(self) -> float:
-        return self.rejected / self.answers if self.answers else 0.0
-
-    @property
     def wrong_rate(self) -> float:
         return self.wrong / self.answers if self.answers else 0.0
 

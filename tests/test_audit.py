@@ -12,17 +12,13 @@ from typing import Any
 
 import pytest
 
-from planner.audit.branches import Violation, audit, format_report, tree_stats
-from planner.audit.domain import (
-    Domain,
-    State,
-    Term,
-    TermError,
-    parse_action,
-    parse_facts,
-    parse_state,
-    parse_term,
-)
+from planner.audit.actions import parse_sim_action
+from planner.audit.branches import Violation, audit, format_report
+from planner.audit.domain import Domain
+from planner.audit.facts import parse_facts
+from planner.audit.fluents import SimState, parse_sim_state
+from planner.audit.stats import tree_stats
+from planner.vocabulary import Term, TermError, parse_term
 
 # A top with one connection in the shared region, a robot-reachable leg in
 # the shared region (so the human may pick it up), a dangerous foot the
@@ -316,21 +312,21 @@ def domain(add: tuple[str, ...] = (), drop: tuple[str, ...] = ()) -> Domain:
     return Domain(facts)
 
 
-def st(*fluents: str) -> State:
-    state, errors = parse_state(list(fluents))
+def st(*fluents: str) -> SimState:
+    state, errors = parse_sim_state(list(fluents))
     assert errors == []
     return state
 
 
-def check(dom: Domain, state: State, action: str) -> list[str]:
-    act = parse_action(action, dom.f)
+def check(dom: Domain, state: SimState, action: str) -> list[str]:
+    act = parse_sim_action(action, dom.f)
     assert not isinstance(act, str)
     fails, safety = dom.preconditions(state, act)
     return fails + safety
 
 
-def outcomes(dom: Domain, state: State, action: str) -> dict[str | None, State] | None:
-    act = parse_action(action, dom.f)
+def outcomes(dom: Domain, state: SimState, action: str) -> dict[str | None, SimState] | None:
+    act = parse_sim_action(action, dom.f)
     assert not isinstance(act, str)
     return dom.outcomes(state, act)
 

@@ -139,11 +139,10 @@ def test_a_cold_plan_solves_with_the_program_ground_while_the_checks_decide(
     scenario = load_scenario(PAPER_DIR / "paper-13.toml")
     for _ in range(2):  # cold, then warm
         plan_scenario(scenario, workers=2, cache_dir=tmp_path, planner_hook=planners.append)
-    ahead = planners[0].ahead
     # Every pair the pool was asked about was reachable: the hoped-for program served.
     # (The plan is that of a warm cache: the test above.)
-    assert ahead is not None and planners[0]._local is ahead.result()
-    assert planners[1].ahead is None  # every answer cached: nothing to wait for
+    assert planners[0].grounded_ahead
+    assert planners[1].settings.ahead is None  # every answer cached: nothing to wait for
 
 
 def test_a_motion_asked_before_the_paths_goes_before_them() -> None:

@@ -77,11 +77,12 @@ def test_local_workers_give_the_same_plan_for_one_window(monkeypatch: pytest.Mon
 
 
 def test_one_worker_keeps_the_solvers_defaults() -> None:
-    from planner.search.hcp import ConditionalPlanner, Problem
+    from planner.search.branch_planner import Problem
+    from planner.search.hcp import ConditionalPlanner, PlannerSettings
 
     problem = Problem(("part(top)",), frozenset(), 4)
-    assert not ConditionalPlanner(problem, [], workers=1).problem.history_free
-    assert ConditionalPlanner(problem, [], workers=2).problem.history_free
+    assert not ConditionalPlanner(problem, [], PlannerSettings(workers=1)).problem.history_free
+    assert ConditionalPlanner(problem, [], PlannerSettings(workers=2)).problem.history_free
 
 
 def test_a_sweep_runs_as_ray_tasks() -> None:

@@ -8,7 +8,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from planner.planning import cycle_collection_paused, plan_scenario
+from planner.collector_pause import cycle_collection_paused
+from planner.planning import plan_scenario
 from planner.resources import find_scenario
 from planner.scenario.loading import load_scenario
 from planner.search.hcp import ConditionalPlanner

@@ -209,7 +209,7 @@ def test_the_talk_found_from_the_search_is_the_talk_of_the_built_plan() -> None:
 def test_a_plan_built_with_its_talk_counts_it_as_the_audit_does() -> None:
     """`build_plan` puts the talk in as it builds; the statistics count it as the
     audit's own count does, also before a goal at the root."""
-    from planner.audit.branches import tree_stats as audited_stats
+    from planner.audit.stats import tree_stats as audited_stats
     from planner.search.hcp import DagNode
     from planner.search.plan_building import build_plan
     from planner.vocabulary import Farewell, Greet, State

@@ -22,7 +22,9 @@ from planner.planning import (
 from planner.resources import scenario_path
 from planner.scenario.loading import Scenario, load_scenario
 from planner.scenario.paper import all_instances, instance_name
-from planner.search.hcp import ConditionalPlanner, DeadEnd, Problem
+from planner.search.branch_planner import Problem
+from planner.search.errors import DeadEnd
+from planner.search.hcp import ConditionalPlanner, PlannerSettings
 from tests.domain_fixtures import scenario
 from tests.plan_fixtures import ROOT
 
@@ -73,7 +75,8 @@ def _search(sc: Scenario) -> None:
     """The conditional planner alone, without the diagnosis in front of it."""
     reach = frozenset(sc.reachable_pairs())
     facts = tuple(f for f in sc.facts(reach) if not f.startswith("reachable("))
-    planner = ConditionalPlanner(Problem(facts, reach, DEFAULT_HORIZON), sc.goal_pairs(), workers=1)
+    problem = Problem(facts, reach, DEFAULT_HORIZON)
+    planner = ConditionalPlanner(problem, sc.goal_pairs(), PlannerSettings(workers=1))
     planner.build(initial_state(sc))
 
 

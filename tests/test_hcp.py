@@ -11,7 +11,9 @@ from planner.audit.branches import audit
 from planner.plan import walks
 from planner.planning import PlanningCancelled, plan_scenario
 from planner.search import encoding, solver
-from planner.search.hcp import ConditionalPlanner, DagNode, DeadEnd, Problem, Progress
+from planner.search.branch_planner import Problem
+from planner.search.errors import DeadEnd
+from planner.search.hcp import ConditionalPlanner, DagNode, PlannerSettings, Progress
 from planner.vocabulary import CONVERSATION, State, parse_action
 from tests.domain_fixtures import scenario
 
@@ -170,13 +172,14 @@ def test_grounds_once_per_horizon_and_solves_many_times(monkeypatch: pytest.Monk
 
 def test_a_dead_outcome_bans_the_parent_action_and_plans_the_parent_again() -> None:
     from planner.planning import DEFAULT_HORIZON, initial_state
-    from planner.search.hcp import BranchPlanner, DeadEnd, Problem
+    from planner.search.branch_planner import BranchPlanner
+    from planner.search.errors import DeadEnd
 
     sc = scenario()
     reach = frozenset(sc.reachable_pairs())
     facts = tuple(f for f in sc.facts(reach) if not f.startswith("reachable("))
     problem = Problem(facts, reach, DEFAULT_HORIZON)
-    planner = ConditionalPlanner(problem, sc.goal_pairs(), workers=1)
+    planner = ConditionalPlanner(problem, sc.goal_pairs(), PlannerSettings(workers=1))
     worker = BranchPlanner(problem)
     root = initial_state(sc)
     planner.root = root
@@ -324,7 +327,7 @@ def test_solvers_ground_ahead_serve_only_their_own_problem() -> None:
     from dataclasses import replace
 
     from planner.planning import DEFAULT_HORIZON, initial_state
-    from planner.search.hcp import ground_ahead
+    from planner.search.branch_planner import ground_ahead
 
     sc = scenario()
     reach = frozenset(sc.reachable_pairs())
@@ -333,10 +336,10 @@ def test_solvers_ground_ahead_serve_only_their_own_problem() -> None:
     other = replace(problem, reachable=reach - {min(reach)})
     plans = []
     for ahead in (None, ground_ahead(problem), ground_ahead(other)):
-        planner = ConditionalPlanner(problem, sc.goal_pairs(), workers=1, ahead=ahead)
+        settings = PlannerSettings(workers=1, ahead=ahead)
+        planner = ConditionalPlanner(problem, sc.goal_pairs(), settings)
         planner.build(initial_state(sc))
-        used = planner._grounded_ahead()
-        if ahead is not None:
-            assert (used is ahead.result()) == (ahead.result().problem == problem)
+        # Solved on the solvers ground ahead if, and only if, they are this problem's.
+        assert planner.grounded_ahead == (ahead is not None and ahead.result().problem == problem)
         plans.append({s: (str(n.action), sorted(n.children)) for s, n in planner.nodes.items()})
     assert plans[0] == plans[1] == plans[2]

@@ -7,7 +7,8 @@ from pathlib import Path
 
 from planner.planning import DEFAULT_HORIZON, initial_state, plan_scenario
 from planner.scenario.loading import load_scenario
-from planner.search.hcp import ConditionalPlanner, DagNode, Problem, Progress
+from planner.search.branch_planner import Problem
+from planner.search.hcp import ConditionalPlanner, DagNode, PlannerSettings, Progress
 from planner.search.hoped_planning import HopedPlanning
 from planner.vocabulary import State
 from tests.domain_fixtures import scenario
@@ -32,26 +33,25 @@ def test_what_planning_tells_waits_for_the_answers() -> None:
     planner = ConditionalPlanner(
         problem,
         goals,
-        workers=1,
+        PlannerSettings(workers=1),
         on_planned=lambda nodes: told.append(("planned", len(nodes))),
         on_first_branch=lambda nodes: told.append(("first", len(nodes))),
     )
     hoped = HopedPlanning(planner, initial_state(scenario()))
-    hoped._thread.join()  # planned to the end on the hoped answers alone
+    hoped.result()  # planned to the end on the hoped answers alone
     assert planner.solves > 0 and not told
     hoped.confirm()
     # Everything held back is told at once: the first branch, then every planned node.
     assert [kind for kind, _ in told] == ["first", "planned"]
     assert told[1][1] == sum(1 for n in planner.nodes.values() if n.action is not None)
-    hoped.result()
-    alone = ConditionalPlanner(problem, goals, workers=1)
+    alone = ConditionalPlanner(problem, goals, PlannerSettings(workers=1))
     alone.build(initial_state(scenario()))
     assert _dag(planner) == _dag(alone)  # the plan is the one made after the answers
 
 
 def test_planning_on_answers_that_were_not_the_decided_ones_is_abandoned() -> None:
     problem, goals = _problem()
-    planner = ConditionalPlanner(problem, goals, workers=1)
+    planner = ConditionalPlanner(problem, goals, PlannerSettings(workers=1))
     planning, release = threading.Event(), threading.Event()
 
     def held(_: Progress) -> None:  # holds the planning thread in the middle of planning
@@ -63,7 +63,7 @@ def test_planning_on_answers_that_were_not_the_decided_ones_is_abandoned() -> No
     assert planning.wait(timeout=60)
     threading.Timer(0.2, release.set).start()
     hoped.abandon()  # stops it, and waits until it has stopped
-    assert planner.cancelled and not hoped._thread.is_alive()
+    assert planner.cancelled and not hoped.planning
     assert any(n.action is None and not n.goal for n in planner.nodes.values())
     hoped.abandon()  # once stopped, nothing to do
 
@@ -73,12 +73,12 @@ def test_a_cold_plan_is_planned_once_on_the_hoped_answers(tmp_path: Path) -> Non
     thread started on the hoped answers (no second one after the answers)."""
     planners: list[ConditionalPlanner] = []
     firsts: list[dict[State, DagNode]] = []
-    planned_in: list[set[str]] = []
+    planned_in: list[set[threading.Thread]] = []  # the threads each planner planned in
 
     def hook(planner: ConditionalPlanner) -> None:
         planners.append(planner)
         planned_in.append(set())
-        planner.progress = lambda _: planned_in[-1].add(threading.current_thread().name)
+        planner.progress = lambda _: planned_in[-1].add(threading.current_thread())
         told = planner.on_first_branch
 
         def on_first(nodes: dict[State, DagNode]) -> None:
@@ -91,11 +91,13 @@ def test_a_cold_plan_is_planned_once_on_the_hoped_answers(tmp_path: Path) -> Non
     sc = load_scenario(PAPER_DIR / "paper-13.toml")
     cold = plan_scenario(sc, workers=2, cache_dir=tmp_path, planner_hook=hook)
     assert len(planners) == 1 and len(firsts) == 1
-    assert planners[0].ahead is not None and planners[0]._local is planners[0].ahead.result()
-    assert planned_in[0] == {"tandem-hoped-planning"}
+    assert planners[0].grounded_ahead  # on the program ground for the hoped answers
+    # In one thread, not the caller's: planning began before the answers were decided.
+    assert len(planned_in[0]) == 1 and threading.current_thread() not in planned_in[0]
     warm = plan_scenario(sc, workers=2, cache_dir=tmp_path, planner_hook=hook)
-    assert planners[1].ahead is None  # every answer cached: nothing hoped
-    assert planned_in[1] == {threading.current_thread().name}  # planned after the answers
+    assert planners[1].settings.ahead is None  # every answer cached: nothing hoped
+    assert not planners[1].grounded_ahead
+    assert planned_in[1] == {threading.current_thread()}  # planned after the answers
     assert cold.plan.to_json()["nodes"] == warm.plan.to_json()["nodes"]
 
 

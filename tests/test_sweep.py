@@ -10,7 +10,8 @@ from PIL import Image, ImageStat
 
 from planner.plan.model import STAT_KEYS
 from planner.resources import find_scenario
-from planner.sweep import parse_variation, plan_variant, variants
+from planner.scenario.loading import parse_scenario
+from planner.sweep import Value, Variant, parse_variation, plan_variant, variants
 from tests.plan_fixtures import tandem
 
 SCENARIOS = ["declared.toml", "paper/paper-01.toml", "paper/paper-11.toml"]
@@ -50,11 +51,35 @@ def test_three_scenarios_by_four_variants_write_the_table_and_the_plot(tmp_path:
 
 
 def test_a_variant_is_the_scenario_with_the_setting_replaced() -> None:
+    """Each variant's scenario carries its values, and so does the plan made of it."""
     path = find_scenario("declared.toml")
-    found = variants("declared", path.read_text(), [parse_variation("human.initiative=0,1")])
-    assert [v.settings for v in found] == [(("initiative", 0),), (("initiative", 1),)]
-    row = plan_variant(found[0])
-    assert row["initiative"] == 0 and row["violations"] == 0 and row["N"] > 0
+    vary = ["human.initiative=0,1", "verbosity=terse,chatty", "safety=strict,normal"]
+    found = variants("declared", path.read_text(), [parse_variation(v) for v in vary])
+    assert [v.settings for v in found] == [
+        (("initiative", i), ("verbosity", v), ("safety", s))
+        for i in (0, 1)
+        for v in ("terse", "chatty")
+        for s in ("strict", "normal")
+    ]
+    by_settings: dict[tuple[Value, ...], Variant] = {}
+    for variant in found:
+        settings = dict(variant.settings)
+        scenario = parse_scenario(variant.text, "a variant")
+        assert scenario.human.initiative == settings["initiative"]
+        assert scenario.preferences.verbosity == settings["verbosity"]
+        assert scenario.preferences.safety == settings["safety"]
+        by_settings[tuple(settings.values())] = variant
+    # The row is the variant's plan: a terse robot never greets, a chatty one does,
+    # and a human who never takes the initiative needs no look at their hands.
+    terse = plan_variant(by_settings[(0, "terse", "strict")])
+    chatty = plan_variant(by_settings[(0, "chatty", "strict")])
+    active = plan_variant(by_settings[(1, "terse", "strict")])
+    relaxed = plan_variant(by_settings[(1, "terse", "normal")])
+    assert terse["initiative"] == 0 and terse["violations"] == 0 and terse["N"] > 0
+    assert terse["GE"] == 0 and chatty["GE"] > 0
+    assert terse["S"] < active["S"]
+    # Strict safety asks nothing of the human near a loose dangerous part.
+    assert active["dag_nodes"] != relaxed["dag_nodes"]
 
 
 def test_bad_variations_are_refused_before_planning(tmp_path: Path) -> None:

@@ -23,7 +23,7 @@ from planner.planning import plan_scenario
 from planner.resources import scenario_path
 from planner.scenario import paper
 from planner.scenario.loading import Scenario, load_scenario, parse_scenario
-from planner.search.hcp import DeadEnd
+from planner.search.errors import DeadEnd
 
 SCENARIO_DIR = scenario_path("paper")
 # The paper's real-world task (README, "The real-world task"): benchmarked after

@@ -23,11 +23,16 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from app.sessions.store import SessionStore
+from app.sessions.store import SessionRecord, SessionStore
 from planner.plan.model import format_table
+
+if TYPE_CHECKING:
+    from playwright.sync_api import Browser, Locator, Page
 
 # Niceness of the browsers (see yield_to_server).
 BROWSER_NICE = 15
@@ -102,127 +107,147 @@ def server_latencies(clicks: Sequence[float], answered: Sequence[float]) -> list
     return out
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m app.benchmark.soak")
-    parser.add_argument("--pages", type=int, default=5)
-    parser.add_argument("--minutes", type=float, default=10.0)
-    parser.add_argument("--scenario", default="default.toml")
-    args = parser.parse_args(argv)
-    from playwright.sync_api import Error as PageError
-    from playwright.sync_api import Page, sync_playwright
+@dataclass
+class _Soak:
+    """What a soak measured, as it goes."""
 
-    data = Path(tempfile.mkdtemp(prefix="tandem-soak-"))
+    pages: int
+    page_errors: list[str] = field(default_factory=list)
+    server_errors: list[str] = field(default_factory=list)
+    executions: int = 0
+    answer_s: list[float] = field(default_factory=list)  # click -> the buttons gone
+    clicked_at: list[float] = field(default_factory=list)  # wall clock, to meet stored events
+    rss_first: float | None = None  # the server's RSS after the first minute
+    rss_end: float = float("nan")
+    load_s: float = 0.0  # until every page was up
+    t0: float = field(default_factory=time.monotonic)  # the soak's start, once pages are up
+
+
+def _start_server(data: Path, scenario: str) -> tuple[subprocess.Popen[str], int]:
+    """`tandem dashboard` in its own process, once it listens; and its port."""
     port = _port()
     server = subprocess.Popen(
         [sys.executable, "-m", "app.cli", "dashboard", "--port", str(port), "--workers", "1",
-         "--data-dir", str(data), "--scenario", args.scenario],
+         "--data-dir", str(data), "--scenario", scenario],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
-    assert server.stdout is not None and server.stderr is not None
+    assert server.stdout is not None
     for line in server.stdout:
         if line.startswith("Tandem dashboard on"):
             break
-    server_errors: list[str] = []
+    return server, port
 
-    def watch(stream: object) -> None:
-        for line in stream:  # type: ignore[attr-defined]
+
+def _watch_errors(server: subprocess.Popen[str], errors: list[str]) -> None:
+    """Collects the server's error lines from its stderr, in a thread."""
+
+    def watch(stream: Iterable[str]) -> None:
+        for line in stream:
             if "Traceback" in line or "Error" in line:
-                server_errors.append(line.strip())
+                errors.append(line.strip())
 
+    assert server.stderr is not None
     threading.Thread(target=watch, args=(server.stderr,), daemon=True).start()
-    page_errors: list[str] = []
-    executions = 0
-    answer_s: list[float] = []
-    clicked_at: list[float] = []  # wall clock, to meet the events the server stored
-    rss_first: float | None = None
-    t0 = end = time.monotonic()
-    load_s = 0.0
-    chromium = shutil.which("chromium") or "/usr/bin/chromium"
-    rss_end = float("nan")
+
+
+def _open_pages(browser: Browser, soak: _Soak, port: int, server_pid: int) -> list[Page]:
+    pages: list[Page] = []
+    for _ in range(soak.pages):
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        # Five pages of software WebGL on two busy cores answer slowly.
+        page.set_default_timeout(180_000)
+        page.on("pageerror", lambda err: soak.page_errors.append(str(err)))
+        yield_to_server(server_pid)
+        page.goto(f"http://127.0.0.1:{port}")
+        # Generous: on a loaded 2-core machine a page with the robot's meshes
+        # and software WebGL can take minutes to come up.
+        page.get_by_role("button", name="Plan", exact=True).wait_for(timeout=600_000)
+        pages.append(page)
+    return pages
+
+
+def _execute(operator: Page, soak: _Soak) -> bool:
+    """Plans and executes once on `operator`, answering every question; False if
+    the execution did not end within 5 minutes."""
+    operator.get_by_role("button", name="Plan", exact=True).click()
+    execute = operator.get_by_role("button", name="Execute plan", exact=True)
+    execute.wait_for()
+    deadline = time.monotonic() + 120
+    while not execute.is_enabled() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    execute.click()
+    soak.executions += 1
+    print(f"\rexecution {soak.executions}", end="", file=sys.stderr, flush=True)
+    # The log's last line names the session (ids count the executions).
+    finished = operator.get_by_text(f"Session {soak.executions}: ", exact=False)
+    stuck = time.monotonic() + 300
+    while finished.count() == 0 and time.monotonic() < stuck:
+        buttons = operator.get_by_role("button", name=ANSWER)
+        if buttons.count() == 0:
+            time.sleep(0.05)
+            continue
+        _answer(operator, buttons.last, soak)
+    return finished.count() > 0
+
+
+def _answer(operator: Page, clicked: Locator, soak: _Soak) -> None:
+    """Clicks an answer, and times until the server has removed the question's buttons."""
+    from playwright.sync_api import Error as PageError
+
+    words = clicked.inner_text()
+    t = time.perf_counter()
+    soak.clicked_at.append(time.time())
     try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
-            pages: list[Page] = []
-            for _ in range(args.pages):
-                page = browser.new_page(viewport={"width": 1400, "height": 900})
-                # Five pages of software WebGL on two busy cores answer slowly.
-                page.set_default_timeout(180_000)
-                page.on("pageerror", lambda err: page_errors.append(str(err)))
-                yield_to_server(server.pid)
-                page.goto(f"http://127.0.0.1:{port}")
-                # Generous: on a loaded 2-core machine a page with the robot's meshes
-                # and software WebGL can take minutes to come up.
-                page.get_by_role("button", name="Plan", exact=True).wait_for(timeout=600_000)
-                pages.append(page)
-            # The clock starts once every page is up: loading is not the soak.
-            load_s = time.monotonic() - t0
-            t0 = time.monotonic()
-            end = t0 + 60 * args.minutes
-            # Steps keep the default 0.5 s: the pace at which a person would watch.
-            while time.monotonic() < end:
-                yield_to_server(server.pid)
-                operator = pages[executions % len(pages)]
-                operator.get_by_role("button", name="Plan", exact=True).click()
-                execute = operator.get_by_role("button", name="Execute plan", exact=True)
-                execute.wait_for()
-                deadline = time.monotonic() + 120
-                while not execute.is_enabled() and time.monotonic() < deadline:
-                    time.sleep(0.1)
-                execute.click()
-                executions += 1
-                print(f"\rexecution {executions}", end="", file=sys.stderr, flush=True)
-                # The log's last line names the session (ids count the executions).
-                finished = operator.get_by_text(f"Session {executions}: ", exact=False)
-                stuck = time.monotonic() + 300
-                while finished.count() == 0 and time.monotonic() < stuck:
-                    buttons = operator.get_by_role("button", name=ANSWER)
-                    if buttons.count() == 0:
-                        time.sleep(0.05)
-                        continue
-                    clicked = buttons.last
-                    words = clicked.inner_text()
-                    t = time.perf_counter()
-                    clicked_at.append(time.time())
-                    try:
-                        # A DOM click, not a mouse click: Playwright's mouse waits until
-                        # the button has kept still for two animation frames, and five
-                        # pages of software WebGL make frames seconds apart. The server's
-                        # and the page's part of the answer are what is measured.
-                        clicked.dispatch_event("click", timeout=2_000)
-                    except PageError:
-                        clicked_at.pop()
-                        continue  # answered meanwhile (it vanished): look again
-                    # Answered: the server removes the question's buttons on every page.
-                    gone = operator.get_by_role("button", name=words, exact=True)
-                    while gone.count() > 0 and time.perf_counter() - t < 10:
-                        time.sleep(0.01)
-                    answer_s.append(time.perf_counter() - t)
-                if finished.count() == 0:
-                    page_errors.append(f"execution {executions} did not end within 5 minutes")
-                    break
-                if rss_first is None and time.monotonic() - t0 > 60:
-                    rss_first = rss_mb(server.pid)
-            rss_end = rss_mb(server.pid)
-            browser.close()
-    finally:
-        # Also when a page fails: never leave the server running.
-        server.send_signal(signal.SIGTERM)
-        server.wait(60)
-    with SessionStore(data, read_only=True) as store:
-        sessions = store.list_sessions()
-        answered = sorted(
-            e.time for s in sessions for e in store.events(s.id) if e.source == "click"
-        )
-    recorded_s = server_latencies(clicked_at, answered)
-    shutil.rmtree(data, ignore_errors=True)
-    first = rss_first if rss_first is not None else rss_end
+        # A DOM click, not a mouse click: Playwright's mouse waits until
+        # the button has kept still for two animation frames, and five
+        # pages of software WebGL make frames seconds apart. The server's
+        # and the page's part of the answer are what is measured.
+        clicked.dispatch_event("click", timeout=2_000)
+    except PageError:
+        soak.clicked_at.pop()
+        return  # answered meanwhile (it vanished): look again
+    # Answered: the server removes the question's buttons on every page.
+    gone = operator.get_by_role("button", name=words, exact=True)
+    while gone.count() > 0 and time.perf_counter() - t < 10:
+        time.sleep(0.01)
+    soak.answer_s.append(time.perf_counter() - t)
+
+
+def _soak(soak: _Soak, minutes: float, port: int, server_pid: int) -> None:
+    """Opens the pages, then has them take turns planning and executing for `minutes`."""
+    from playwright.sync_api import sync_playwright
+
+    chromium = shutil.which("chromium") or "/usr/bin/chromium"
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+        pages = _open_pages(browser, soak, port, server_pid)
+        # The clock starts once every page is up: loading is not the soak.
+        soak.load_s = time.monotonic() - soak.t0
+        soak.t0 = time.monotonic()
+        end = soak.t0 + 60 * minutes
+        # Steps keep the default 0.5 s: the pace at which a person would watch.
+        while time.monotonic() < end:
+            yield_to_server(server_pid)
+            if not _execute(pages[soak.executions % len(pages)], soak):
+                soak.page_errors.append(f"execution {soak.executions} did not end within 5 minutes")
+                break
+            if soak.rss_first is None and time.monotonic() - soak.t0 > 60:
+                soak.rss_first = rss_mb(server_pid)
+        soak.rss_end = rss_mb(server_pid)
+        browser.close()
+
+
+def _table(soak: _Soak, sessions: list[SessionRecord], recorded_s: list[float]) -> str:
+    first = soak.rss_first if soak.rss_first is not None else soak.rss_end
+    rss_end, answer_s = soak.rss_end, soak.answer_s
+    errors = soak.page_errors + soak.server_errors
     rows: list[tuple[str, ...]] = [
-        ("run", f"{args.pages} pages", f"{(time.monotonic() - t0) / 60:.1f} min",
-         f"pages up in {load_s:.0f} s"),
-        ("executions / sessions stored", "", f"{executions} / {len(sessions)}",
+        ("run", f"{soak.pages} pages", f"{(time.monotonic() - soak.t0) / 60:.1f} min",
+         f"pages up in {soak.load_s:.0f} s"),
+        ("executions / sessions stored", "", f"{soak.executions} / {len(sessions)}",
          f"{sum(s.result == 'goal' for s in sessions)} at the goal"),
-        ("page errors / server errors", "", f"{len(page_errors)} / {len(server_errors)}",
-         "; ".join((page_errors + server_errors)[:2])[:60]),
+        ("page errors / server errors", "",
+         f"{len(soak.page_errors)} / {len(soak.server_errors)}", "; ".join(errors[:2])[:60]),
         ("server RSS", "after 1 min → end", f"{first:.0f} → {rss_end:.0f} MB",
          f"growth {rss_end - first:+.1f} MB"),
         ("answer click → event stored", f"{len(recorded_s)} clicks",
@@ -232,8 +257,33 @@ def main(argv: Sequence[str] | None = None) -> int:
          f"median {1000 * statistics.median(answer_s or [0]):.0f} ms",
          f"max {1000 * max(answer_s or [0]):.0f} ms"),
     ]  # fmt: skip
-    print(format_table(("measure", "on", "result", "spread"), rows))
-    ok = not page_errors and not server_errors and executions == len(sessions)
+    return format_table(("measure", "on", "result", "spread"), rows)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m app.benchmark.soak")
+    parser.add_argument("--pages", type=int, default=5)
+    parser.add_argument("--minutes", type=float, default=10.0)
+    parser.add_argument("--scenario", default="default.toml")
+    args = parser.parse_args(argv)
+    data = Path(tempfile.mkdtemp(prefix="tandem-soak-"))
+    server, port = _start_server(data, args.scenario)
+    soak = _Soak(args.pages)
+    _watch_errors(server, soak.server_errors)
+    try:
+        _soak(soak, args.minutes, port, server.pid)
+    finally:
+        # Also when a page fails: never leave the server running.
+        server.send_signal(signal.SIGTERM)
+        server.wait(60)
+    with SessionStore(data, read_only=True) as store:
+        sessions = store.list_sessions()
+        answered = sorted(
+            e.time for s in sessions for e in store.events(s.id) if e.source == "click"
+        )
+    shutil.rmtree(data, ignore_errors=True)
+    print(_table(soak, sessions, server_latencies(soak.clicked_at, answered)))
+    ok = not soak.page_errors and not soak.server_errors and soak.executions == len(sessions)
     return 0 if ok else 1
 
 

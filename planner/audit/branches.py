@@ -11,30 +11,23 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from planner.audit.domain import (
-    COMMUNICATION,
-    CONVERSATION,
-    GOAL,
+from planner.audit.actions import COMMUNICATION, GOAL, KINDS, SimAction, parse_sim_action
+from planner.audit.domain import Domain
+from planner.audit.facts import Facts, parse_facts
+from planner.audit.fluents import (
     HUMAN_FREE,
     HUMAN_HOLDING,
-    KINDS,
-    Action,
-    Domain,
-    Facts,
-    Fluent,
-    State,
+    SimFluent,
+    SimState,
     fluent_str,
-    parse_action,
-    parse_facts,
-    parse_state,
+    parse_sim_state,
 )
 from planner.audit.motions import motion_problems
+from planner.audit.stats import Child, compare_stats, node_children, tree_stats
 from planner.audit.talk import conversation_problems
-from planner.plan.model import FORMAT, PAPER_STAT_KEYS, STAT_KEYS  # names only; checks are our own
+from planner.plan.model import FORMAT  # the name only; the checks are our own
 
 ROOT_PATH = "root"
-
-Child = tuple[str | None, str]  # (outcome label, node id)
 
 
 @dataclass(frozen=True)
@@ -78,7 +71,7 @@ def audit(plan: dict[str, Any]) -> list[Violation]:
             out.append(Violation(node_id, "", "node is not reachable from the root"))
     if walker.sound:
         # Statistics and motions only mean something on a well-formed DAG.
-        _compare_stats(plan.get("stats"), tree_stats(plan), plan_level)
+        compare_stats(plan.get("stats"), tree_stats(plan), plan_level)
         for node_id, message in motion_problems(nodes, root):
             out.append(Violation(node_id, walker.paths.get(node_id, ""), message))
         for node_id, message in conversation_problems(walker.dom, nodes, root, walker.state):
@@ -103,25 +96,6 @@ def format_report(violations: Sequence[Violation]) -> str:
 # ---------------------------------------------------------------- the walk
 
 
-def _children(raw: Any) -> tuple[list[Child], list[str]]:
-    """A node's children as (label, id), and what was malformed."""
-    kids = raw.get("children") if isinstance(raw, dict) else None
-    if not isinstance(kids, list):
-        return [], ["children must be a list"]
-    out: list[Child] = []
-    errors: list[str] = []
-    for kid in kids:
-        if (
-            isinstance(kid, dict)
-            and isinstance(kid.get("node"), str)
-            and (kid.get("outcome") is None or isinstance(kid.get("outcome"), str))
-        ):
-            out.append((kid.get("outcome"), kid["node"]))
-        else:
-            errors.append(f"malformed child {kid!r}")
-    return out, errors
-
-
 class _Walker:
     """Depth-first walk of the DAG; each node is checked once, each edge once."""
 
@@ -130,20 +104,20 @@ class _Walker:
         self.nodes = nodes
         self.out = out
         self.paths: dict[str, str] = {}  # first path reaching each node
-        self.successors: dict[str, dict[str | None, State] | None] = {}
+        self.successors: dict[str, dict[str | None, SimState] | None] = {}
         self.actions: dict[str, str] = {}
-        self._states: dict[str, tuple[State, list[str]]] = {}
+        self._states: dict[str, tuple[SimState, list[str]]] = {}
         self.sound = True  # no cycle, no dangling or malformed edge
 
     def report(self, node: str, path: str, message: str) -> None:
         self.out.append(Violation(node, path, message))
 
-    def state(self, node_id: str) -> tuple[State, list[str]]:
+    def state(self, node_id: str) -> tuple[SimState, list[str]]:
         # Parsed lazily: an edge may be checked before its child is visited.
         if node_id not in self._states:
             raw = self.nodes[node_id]
             items = raw.get("state") if isinstance(raw, dict) else None
-            self._states[node_id] = parse_state(items)
+            self._states[node_id] = parse_sim_state(items)
         return self._states[node_id]
 
     def run(self, root: str) -> None:
@@ -192,7 +166,7 @@ class _Walker:
             self.sound = False
             report("node is not an object")
             return []
-        kids, kid_errors = _children(raw)
+        kids, kid_errors = node_children(raw)
         if kid_errors:
             self.sound = False
         for message in kid_errors:
@@ -204,6 +178,30 @@ class _Walker:
             for message in _root_inconsistencies(self.dom.f, state):
                 report(f"root state: {message}")
 
+        text = self.check_kind(raw, kids, None if state_errors else state, report)
+        if text is None:
+            return kids
+        action = parse_sim_action(text, self.dom.f)
+        if isinstance(action, str):
+            report(action)
+            return kids
+        self.actions[node_id] = action.text
+        kind = raw.get("kind")
+        if kind in KINDS and kind != action.kind:
+            report(f"kind is {kind} but {action.text} is of kind {action.kind}")
+        if not state_errors:
+            self.successors[node_id] = self.check_action(action, state, kids, report)
+        return kids
+
+    def check_kind(
+        self,
+        raw: dict[str, Any],
+        kids: list[Child],
+        state: SimState | None,
+        report: Callable[[str], None],
+    ) -> str | None:
+        """Checks what a node's kind asks of it (`state`: None if malformed);
+        returns its action's text to simulate, or None if there is none."""
         kind, text = raw.get("kind"), raw.get("action")
         if kind not in KINDS:
             report(f"unknown kind {kind!r}")
@@ -217,34 +215,25 @@ class _Walker:
                 report(f"goal node has action {text!r} (must be null)")
             if kids:
                 report("goal node has children")
-            if not state_errors:
+            if state is not None:
                 for reason in self.dom.goal_failures(state):
                     report(f"goal not reached: {reason}")
             if text is None or not kids:
-                return kids
+                return None
         elif not kids:
             report("leaf not at the goal")
-            return kids
+            return None
         if text is None:
             report("action is null but the node is not a goal node")
-            return kids
+            return None
         if not isinstance(text, str):
             report(f"action must be a string or null, got {text!r}")
-            return kids
-        action = parse_action(text, self.dom.f)
-        if isinstance(action, str):
-            report(action)
-            return kids
-        self.actions[node_id] = action.text
-        if kind in KINDS and kind != action.kind:
-            report(f"kind is {kind} but {action.text} is of kind {action.kind}")
-        if not state_errors:
-            self.successors[node_id] = self.check_action(action, state, kids, report)
-        return kids
+            return None
+        return text
 
     def check_action(
-        self, action: Action, state: State, kids: list[Child], report: Callable[[str], None]
-    ) -> dict[str | None, State] | None:
+        self, action: SimAction, state: SimState, kids: list[Child], report: Callable[[str], None]
+    ) -> dict[str | None, SimState] | None:
         fails, safety = self.dom.preconditions(state, action)
         for name in fails:
             report(f"precondition failed: {name}")
@@ -300,124 +289,10 @@ class _Walker:
         )
 
 
-# ---------------------------------------------------------------- statistics
-
-
-def tree_stats(plan: dict[str, Any]) -> dict[str, int]:
-    """Statistics of the unfolded tree (a node shared by k paths counts k times).
-
-    Memoised over the DAG, so exponential unfoldings stay cheap (big ints).
-    Raises ValueError if the graph has a cycle or a dangling/malformed edge.
-    """
-    nodes: dict[str, Any] = plan["nodes"]
-    root: str = plan["root"]
-    kids: dict[str, list[str]] = {}
-    nondet: set[str] = set()
-    order: list[str] = []  # postorder: children before parents
-    done: dict[str, bool] = {}  # False while on the DFS stack, True when finished
-    stack: list[tuple[str, Iterator[str]]] = []
-
-    def enter(node_id: str) -> None:
-        if node_id not in nodes:
-            raise ValueError(f"child {node_id!r} is not a node")
-        children, errors = _children(nodes[node_id])
-        if errors:
-            raise ValueError(f"node {node_id}: {errors[0]}")
-        kids[node_id] = [target for _, target in children]
-        if any(label is not None for label, _ in children):
-            nondet.add(node_id)
-        done[node_id] = False
-        stack.append((node_id, iter(kids[node_id])))
-
-    enter(root)
-    while stack:
-        node_id, it = stack[-1]
-        target = next(it, None)
-        if target is None:
-            done[node_id] = True
-            order.append(node_id)
-            stack.pop()
-        elif target not in done:
-            enter(target)
-        elif not done[target]:
-            raise ValueError(f"cycle through {target}")
-
-    # Paths from the root to each node = its copies in the unfolded tree.
-    copies: dict[str, int] = dict.fromkeys(order, 0)
-    copies[root] = 1
-    for node_id in reversed(order):
-        for target in kids[node_id]:
-            copies[target] += copies[node_id]
-
-    def name(node_id: str) -> str:
-        action = nodes[node_id].get("action")
-        return action.split("(", 1)[0].strip() if isinstance(action, str) else ""
-
-    def count(pred: Callable[[str], bool]) -> int:
-        return sum(copies[n] for n in order if pred(n))
-
-    # The paper's columns count the paper's repertoire: the conversation apart.
-    def talk(node_id: str) -> bool:
-        return name(node_id) in CONVERSATION
-
-    # Longest branch (action nodes = non-goal nodes); ties: first child in order.
-    best: dict[str, tuple[int, int, int, int]] = {}
-    for node_id in order:
-        kind = nodes[node_id].get("kind")
-        counted = not talk(node_id)
-        own = (
-            int(kind != GOAL and counted),
-            int(kind == "actuation"),
-            int(kind == "sensing"),
-            int(kind == "communication" and counted),
-        )
-        tail = (0, 0, 0, 0)
-        for target in kids[node_id]:
-            if best[target][0] > tail[0]:
-                tail = best[target]
-        best[node_id] = (own[0] + tail[0], own[1] + tail[1], own[2] + tail[2], own[3] + tail[3])
-    d, a, s, c = best[root]
-    return {
-        "L": count(lambda n: not kids[n]),
-        "D": d,
-        "A": a,
-        "S": s,
-        "C": c,
-        "K": count(lambda n: name(n) == "askHelp"),
-        "O": count(lambda n: name(n) == "offerHelp"),
-        "CF": count(lambda n: name(n) == "confirmAttach"),
-        "R": count(lambda n: name(n) in ("requestToUnhold", "requestToAttach")),
-        "DN": count(lambda n: n in nondet),
-        "BF": max(len(kids[n]) for n in order),
-        "N": count(lambda n: not talk(n)),
-        "GE": count(lambda n: name(n) in ("greet", "farewell")),
-        "W": count(lambda n: name(n) in ("warnWorking", "warnDanger")),
-        "X": count(lambda n: name(n) in ("explainAsk", "explainOwnTask")),
-        "dag_nodes": len(nodes),
-    }
-
-
-def _compare_stats(given: Any, actual: dict[str, int], report: Callable[[str], None]) -> None:
-    if not isinstance(given, dict):
-        report("stats: missing (expected an object)")
-        return
-    for key in STAT_KEYS:
-        if key not in given:
-            # Files from before the conversation lack its counts, and need none.
-            if key in PAPER_STAT_KEYS or actual[key]:
-                report(f"stats: {key} is missing (the tree has {actual[key]})")
-            continue
-        value = given[key]
-        if not isinstance(value, int) or isinstance(value, bool):
-            report(f"stats: {key} is {value!r}, not an integer (the tree has {actual[key]})")
-        elif value != actual[key]:
-            report(f"stats: {key} is {value} but the tree has {actual[key]}")
-
-
 # ---------------------------------------------------------------- root state
 
 
-def _root_inconsistencies(f: Facts, s: State) -> list[str]:
+def _root_inconsistencies(f: Facts, s: SimState) -> list[str]:
     """Why `s` cannot be a real state (used on the root, which is given)."""
     out: list[str] = []
     for y in sorted(s):
@@ -450,7 +325,7 @@ def _root_inconsistencies(f: Facts, s: State) -> list[str]:
     return out
 
 
-def _duplicates(s: State, name: str, key: tuple[int, ...], what: str) -> list[str]:
+def _duplicates(s: SimState, name: str, key: tuple[int, ...], what: str) -> list[str]:
     seen: dict[tuple[str, ...], int] = {}
     for y in s:
         if y[0] == name:
@@ -459,5 +334,5 @@ def _duplicates(s: State, name: str, key: tuple[int, ...], what: str) -> list[st
     return [f"{','.join(k)} {what}" for k, n in sorted(seen.items()) if n > 1]
 
 
-def _sorted_fluents(fluents: Iterable[Fluent]) -> list[str]:
+def _sorted_fluents(fluents: Iterable[SimFluent]) -> list[str]:
     return sorted(fluent_str(y) for y in fluents)

@@ -2,167 +2,18 @@
 
 Deliberately independent of clingo and of `planner/asp/`: the audit exists to
 catch mistakes in the encodings, so it re-implements the semantics from the
-document instead of reusing the solver.
+document instead of reusing the solver. Its states and actions are its own too
+(`planner.audit.fluents`, `planner.audit.actions`).
 """
 
 from __future__ import annotations
 
-import functools
-import re
-from dataclasses import dataclass
+from collections.abc import Callable
 
-from planner.audit.facts import Facts, parse_facts, term_order
+from planner.audit.actions import CONVERSATION, SimAction
+from planner.audit.facts import Facts, term_order
+from planner.audit.fluents import HUMAN_FREE, HUMAN_HOLDING, TASKS, SimFluent, SimState, fluent_str
 from planner.audit.table import PROPERTIES, PlannedTable
-from planner.vocabulary import Term, TermError, constants, parse_term
-
-__all__ = ["Facts", "Term", "TermError", "constants", "parse_facts", "parse_term", "term_order"]
-
-# ---------------------------------------------------------------- state
-
-# A fluent is ("attached", "leg1", "top", "c1"); tuples make matching easy.
-Fluent = tuple[str, ...]
-State = frozenset[Fluent]
-
-FLUENT_ARITY: dict[str, int] = {
-    "attached": 3,
-    "holding": 2,
-    "humanFree": 0,
-    "humanHolding": 0,
-    "humanHoldingPart": 1,
-    "wantToAttach": 2,
-    "acceptToAttach": 2,
-    "requestedAttach": 2,
-    "reserved": 1,
-    "declined": 2,
-    "keepsHolding": 1,
-    "initiatives": 1,  # initiatives(N): the human took the initiative N times
-    "shapeIs": 2,  # planned configurations: what sensing saw (planner.audit.table)
-    "lengthIs": 2,
-}
-TASKS = ("wantToAttach", "acceptToAttach", "requestedAttach")
-HUMAN_FREE: Fluent = ("humanFree",)
-HUMAN_HOLDING: Fluent = ("humanHolding",)
-
-
-def fluent_str(f: Fluent) -> str:
-    return f[0] if len(f) == 1 else f"{f[0]}({','.join(f[1:])})"
-
-
-def parse_state(items: object) -> tuple[State, list[str]]:
-    """Parse a node's `state` list; unknown or malformed fluents are errors."""
-    if not isinstance(items, list):
-        return frozenset(), ["state must be a list of fluent strings"]
-    out: set[Fluent] = set()
-    errors: list[str] = []
-    for item in items:
-        if not isinstance(item, str):
-            errors.append(f"state: {item!r} is not a string")
-            continue
-        fluent, error = _parse_fluent(item)
-        if fluent is None:
-            errors.append(error)
-        else:
-            out.add(fluent)
-    return frozenset(out), errors
-
-
-@functools.lru_cache(maxsize=1 << 16)
-def _parse_fluent(item: str) -> tuple[Fluent | None, str]:
-    """One fluent of a state, or the error it makes. Cached: the states of a plan
-    share most of their fluents (U10: 131,705 parsed, 8.7 s of a 27 s audit)."""
-    try:
-        term = parse_term(item)
-    except TermError as exc:
-        return None, f"state: {exc}"
-    args = constants(term)
-    if (
-        args is None
-        or FLUENT_ARITY.get(term.name) != len(args)
-        or (term.name == "initiatives" and not re.fullmatch(r"[1-9][0-9]*", args[0]))
-    ):
-        return None, f"state: unknown fluent {item}"
-    return (term.name, *args), ""
-
-
-# ---------------------------------------------------------------- actions
-
-ACTUATION, SENSING, COMMUNICATION, GOAL = "actuation", "sensing", "communication", "goal"
-KINDS = (ACTUATION, SENSING, COMMUNICATION, GOAL)
-
-# The conversation (docs/domain.md, "Conversation"): deterministic communication
-# that changes nothing in the world; when it is due is `planner.audit.talk`'s.
-CONVERSATION: dict[str, tuple[str, ...]] = {
-    "greet": (),
-    "farewell": (),
-    "warnWorking": ("region",),
-    "warnDanger": ("part",),
-    "explainAsk": ("part",),
-    "explainOwnTask": ("part",),
-}
-# name -> (kind, argument types, deterministic). Sensing actions are keyed by
-# the inner term's name (`sense(humanUnholding(P))` -> "humanUnholding").
-_ACTIONS: dict[str, tuple[str, tuple[str, ...], bool]] = {
-    "hold": (ACTUATION, ("manipulator", "part"), True),
-    "attach": (ACTUATION, ("manipulator", "part", "point"), True),
-    "unhold": (ACTUATION, ("manipulator",), True),
-    "humanHolding": (SENSING, (), False),
-    "humanHoldingWhichPart": (SENSING, (), False),
-    "humanUnholding": (SENSING, ("part",), False),
-    "humanAttachingWhere": (SENSING, ("part", "part"), False),
-    "shapeOf": (SENSING, ("part",), False),
-    "lengthOf": (SENSING, ("part",), False),
-    "confirmAttach": (COMMUNICATION, ("part", "part"), False),
-    "askHelp": (COMMUNICATION, ("part", "part"), False),
-    "offerHelp": (COMMUNICATION, ("part", "part"), False),
-    "requestToUnhold": (COMMUNICATION, ("part",), True),
-    "requestToAttach": (COMMUNICATION, ("part", "part"), True),
-    **{name: (COMMUNICATION, types, True) for name, types in CONVERSATION.items()},
-}
-_SENSED = {k for k, v in _ACTIONS.items() if v[0] == SENSING}
-
-
-@dataclass(frozen=True)
-class Action:
-    name: str
-    args: tuple[str, ...]
-    text: str  # canonical rendering, for messages
-
-    @property
-    def kind(self) -> str:
-        return _ACTIONS[self.name][0]
-
-    @property
-    def deterministic(self) -> bool:
-        return _ACTIONS[self.name][2]
-
-
-def parse_action(text: str, facts: Facts) -> Action | str:
-    """The action, or an error message (unknown action, arity, unknown ids)."""
-    try:
-        term = parse_term(text)
-    except TermError as exc:
-        return str(exc)
-    shown = str(term)
-    inner = term
-    if term.name == "sense":
-        if len(term.args) != 1 or term.args[0].name not in _SENSED:
-            return f"unknown action {shown}"
-        inner = term.args[0]
-    elif term.name not in _ACTIONS or term.name in _SENSED:
-        return f"unknown action {shown}"
-    _, types, _ = _ACTIONS[inner.name]
-    args = constants(inner)
-    if args is None or len(args) != len(types):
-        return f"{shown}: {inner.name} takes {len(types)} constant argument(s)"
-    for arg, typ in zip(args, types, strict=True):
-        if typ == "manipulator" and arg not in facts.manipulators:
-            return f"{shown}: unknown manipulator {arg}"
-        if typ == "part" and arg not in facts.parts:
-            return f"{shown}: unknown part {arg}"
-        if typ == "region" and arg not in facts.regions:
-            return f"{shown}: unknown region {arg}"
-    return Action(inner.name, args, shown)
-
 
 # ---------------------------------------------------------------- semantics
 
@@ -174,7 +25,7 @@ class Domain:
         self.f = facts
         self.table = PlannedTable(facts) if facts.planned else None
 
-    def join_failures(self, s: State, p: str, q: str) -> list[str]:
+    def join_failures(self, s: SimState, p: str, q: str) -> list[str]:
         """Why the final configuration may not attach P to Q in `s`: not a goal
         fact, or (planned) not seen to fit (which also rules out every pair no
         stable table contains)."""
@@ -187,19 +38,19 @@ class Domain:
         return [q for gp, q in pairs if gp == p]
 
     # -- derived notions, evaluated in the state before the action
-    def held_by(self, s: State, m: str) -> list[str]:
+    def held_by(self, s: SimState, m: str) -> list[str]:
         return sorted(x[2] for x in s if x[0] == "holding" and x[1] == m)
 
-    def free(self, s: State, m: str) -> bool:
+    def free(self, s: SimState, m: str) -> bool:
         return not self.held_by(s, m)
 
-    def is_attached(self, s: State, p: str) -> bool:
+    def is_attached(self, s: SimState, p: str) -> bool:
         return any(x[0] == "attached" and x[1] == p for x in s)
 
-    def loose(self, s: State, p: str) -> bool:
+    def loose(self, s: SimState, p: str) -> bool:
         return not self.is_attached(s, p) and not any(x[0] == "holding" and x[2] == p for x in s)
 
-    def chain(self, s: State, q: str) -> list[tuple[str, str]]:
+    def chain(self, s: SimState, q: str) -> list[tuple[str, str]]:
         """(part, point) of each attachment down from Q to the part attached to nothing."""
         steps: list[tuple[str, str]] = []
         seen = {q}
@@ -212,26 +63,26 @@ class Domain:
             q = up[0][0]
             seen.add(q)
 
-    def root(self, s: State, q: str) -> str:
+    def root(self, s: SimState, q: str) -> str:
         steps = self.chain(s, q)
         return steps[-1][0] if steps else q
 
     def in_reach(self, p: str) -> bool:
         return self.f.loc.get(p) in self.f.human_reach
 
-    def spent(self, s: State) -> int:
+    def spent(self, s: SimState) -> int:
         """How often the human took the initiative: the largest `initiatives(N)`, or 0."""
         return max((int(x[1]) for x in s if x[0] == "initiatives"), default=0)
 
-    def initiative_left(self, s: State) -> bool:
+    def initiative_left(self, s: SimState) -> bool:
         return self.spent(s) < self.f.initiative
 
-    def took_initiative(self, s: State) -> State:
+    def took_initiative(self, s: SimState) -> SimState:
         """Count one more initiative; which part it was is not remembered."""
         n = self.spent(s)
         return (s - {("initiatives", str(n))}) | {("initiatives", str(n + 1))}
 
-    def candidates(self, s: State) -> list[str]:
+    def candidates(self, s: SimState) -> list[str]:
         if not self.initiative_left(s):
             return []
         return sorted(
@@ -243,14 +94,14 @@ class Domain:
             and ("reserved", p) not in s
         )
 
-    def open_points(self, s: State, p: str, q: str) -> list[str]:
+    def open_points(self, s: SimState, p: str, q: str) -> list[str]:
         """Q's unoccupied points that P could take, in ASP term order."""
         if p == q or (self.f.cls.get(p), self.f.cls.get(q)) not in self.f.attachable:
             return []
         taken = {x[3] for x in s if x[0] == "attached" and x[2] == q}
         return sorted(self.f.connections.get(q, set()) - taken, key=term_order)
 
-    def free_point(self, s: State, p: str, q: str) -> str | None:
+    def free_point(self, s: SimState, p: str, q: str) -> str | None:
         """The first open point: points are interchangeable, plans name this one."""
         points = self.open_points(s, p, q)
         return points[0] if points else None
@@ -258,13 +109,13 @@ class Domain:
     def arms_at(self, q: str, c: str) -> int:
         return sum((m, q, c) in self.f.point_reach for m in self.f.manipulators)
 
-    def arm_point(self, s: State, m: str, p: str, q: str) -> str | None:
+    def arm_point(self, s: SimState, m: str, p: str, q: str) -> str | None:
         """Onto a fixed part whose points were checked: the open point M reaches that
         the fewest arms reach (then in term order)."""
         points = [c for c in self.open_points(s, p, q) if (m, q, c) in self.f.point_reach]
         return min(points, key=lambda c: (self.arms_at(q, c), term_order(c)), default=None)
 
-    def human_point(self, s: State, p: str, q: str) -> str | None:
+    def human_point(self, s: SimState, p: str, q: str) -> str | None:
         """Where the plan expects the human to attach P onto Q: the first open point,
         or onto a fixed part whose points were checked the one the most arms reach."""
         if q not in self.f.points_checked:
@@ -272,7 +123,7 @@ class Domain:
         points = self.open_points(s, p, q)
         return min(points, key=lambda c: (-self.arms_at(q, c), term_order(c)), default=None)
 
-    def point_failures(self, s: State, m: str, q: str) -> list[str]:
+    def point_failures(self, s: SimState, m: str, q: str) -> list[str]:
         """Why M cannot work on Q where it stands: Q attached, down its chain, at
         point C of a fixed part R whose points were checked, which M does not reach."""
         stands = next((st for st in self.chain(s, q) if st[0] in self.f.points_checked), None)
@@ -280,7 +131,7 @@ class Domain:
             return []
         return [f"pointReach({m},{stands[0]},{stands[1]})"]
 
-    def still_needed(self, s: State, p: str) -> bool:
+    def still_needed(self, s: SimState, p: str) -> bool:
         if self.table is not None:
             # Which table the planner chose is its own; any part a table may use
             # and not yet in place may be needed.
@@ -290,22 +141,22 @@ class Domain:
             for gp, q in self.f.goals
         )
 
-    def human_workable(self, s: State, q: str) -> bool:
+    def human_workable(self, s: SimState, q: str) -> bool:
         r = self.root(s, q)
         return self.loose(s, r) and self.in_reach(r)
 
-    def unsafe_region(self, s: State, r: str) -> bool:
+    def unsafe_region(self, s: SimState, r: str) -> bool:
         return r in self.f.human_reach and any(
             self.f.loc.get(p) == r and self.loose(s, p) for p in self.f.dangerous
         )
 
-    def tasks(self, s: State) -> list[Fluent]:
+    def tasks(self, s: SimState) -> list[SimFluent]:
         return sorted(x for x in s if x[0] in TASKS)
 
-    def human_knows_not(self, s: State, x: str) -> bool:
+    def human_knows_not(self, s: SimState, x: str) -> bool:
         return HUMAN_FREE in s or any(f[0] == "humanHoldingPart" and f[1] != x for f in s)
 
-    def settled(self, p: str) -> set[Fluent]:
+    def settled(self, p: str) -> set[SimFluent]:
         """What is forgotten about P once it is attached."""
         return {
             ("reserved", p),
@@ -313,113 +164,153 @@ class Domain:
             *(("declined", p, q) for q in self.goal_onto(p)),
         }
 
-    def lapse(self, s: State) -> State:
+    def lapse(self, s: SimState) -> SimState:
         # The human may have picked up any candidate meanwhile.
         return s - {HUMAN_FREE} if self.candidates(s) else s
 
     # -- preconditions
-    def preconditions(self, s: State, a: Action) -> tuple[list[str], list[str]]:
-        """(failed preconditions by name, safety messages) of `a` in `s`."""
-        f = self.f
-        fails: list[str] = []
-        safety: list[str] = []
+    def preconditions(self, s: SimState, a: SimAction) -> tuple[list[str], list[str]]:
+        """(failed preconditions by name, safety messages) of `a` in `s`: the
+        preconditions shared by a family of actions first, then the action's own."""
+        fails = self._shared_preconditions(s, a)
+        own = _OWN_PRECONDITIONS.get(a.name)
+        if own is not None:
+            fails += own(self, s, a)
+        elif a.name in PROPERTIES:
+            fails += self._sense_property_preconditions(s, a)
+        if a.name in CONVERSATION:
+            fails += self._talk_preconditions(a)
+        return fails, self._safety(s, a)
 
-        def need(ok: bool, name: str) -> None:
-            if not ok:
-                fails.append(name)
+    def _safety(self, s: SimState, a: SimAction) -> list[str]:
+        """What `a` would do against the scenario's safety: a dangerous part handed
+        to the human, or (strict safety) a part to fetch near a loose dangerous one."""
+        p = a.args[0] if a.args else ""
+        out: list[str] = []
+        if a.name in _INVOLVE_HUMAN and p in self.f.dangerous:
+            out.append(f"safety: {a.text} involves the dangerous part {p}")
+        if a.name in _HUMAN_FETCHES and self.f.safety == "strict":
+            r = self.f.loc.get(p, "")
+            if self.unsafe_region(s, r):
+                out.append(f"safety: {a.text} under strict safety: {p} lies in unsafeRegion({r})")
+        return out
 
+    def _shared_preconditions(self, s: SimState, a: SimAction) -> list[str]:
         n, x = a.name, a.args
         p = x[0] if x else ""
         q = x[1] if len(x) > 1 else ""
-        if n in ("askHelp", "requestToAttach", "requestToUnhold", "confirmAttach"):
-            if p in f.dangerous:
-                safety.append(f"safety: {a.text} involves the dangerous part {p}")
-        if n in ("askHelp", "requestToAttach") and f.safety == "strict":
-            r = f.loc.get(p, "")
-            if self.unsafe_region(s, r):
-                safety.append(
-                    f"safety: {a.text} under strict safety: {p} lies in unsafeRegion({r})"
-                )
-        if n in ("confirmAttach", "askHelp", "offerHelp", "requestToAttach"):
+        fails: list[str] = []
+        if n in _HUMAN_ATTACHES:
             # The shared tail of every "the human attaches P to Q" action.
-            fails.extend(self.join_failures(s, p, q))
-            need(self.free_point(s, p, q) is not None, f"freePoint({p},{q},_)")
-            need(self.human_workable(s, q), f"humanWorkable({q})")
-        if n in ("askHelp", "requestToAttach"):
-            need(HUMAN_FREE in s, "humanFree")
-            need(p in f.movable, f"movable({p})")
-            need(self.loose(s, p), f"loose({p})")
-            need(self.in_reach(p), f"humanReach({f.loc.get(p, '_')})")
-        if n in ("confirmAttach", "askHelp", "offerHelp", "requestToAttach",
-                 "requestToUnhold", "humanUnholding"):  # fmt: skip
-            need(not self.tasks(s), "noTask")
-        if n in ("confirmAttach", "offerHelp", "requestToUnhold", "humanUnholding"):
-            need(("humanHoldingPart", p) in s, f"humanHoldingPart({p})")
+            fails += self.join_failures(s, p, q)
+            fails += _unmet(
+                (self.free_point(s, p, q) is not None, f"freePoint({p},{q},_)"),
+                (self.human_workable(s, q), f"humanWorkable({q})"),
+            )
+        if n in _HUMAN_FETCHES:
+            fails += _unmet(
+                (HUMAN_FREE in s, "humanFree"),
+                (p in self.f.movable, f"movable({p})"),
+                (self.loose(s, p), f"loose({p})"),
+                (self.in_reach(p), f"humanReach({self.f.loc.get(p, '_')})"),
+            )
+        if n in _NO_TASK:
+            fails += _unmet((not self.tasks(s), "noTask"))
+        if n in _ABOUT_HELD_PART:
+            fails += _unmet((("humanHoldingPart", p) in s, f"humanHoldingPart({p})"))
+        return fails
 
-        if n == "hold":
-            m, p = x
-            need(self.free(s, m), f"free({m})")
-            need(p in f.movable, f"movable({p})")
-            need(self.loose(s, p), f"loose({p})")
-            need((m, p) in f.reachable, f"reachable({m},{p})")
-            if self.in_reach(p):
-                need(self.human_knows_not(s, p), f"humanKnowsNot({p})")
-            need(self.still_needed(s, p), f"stillNeeded({p})")
-            bound = [q for q in self.goal_onto(p) if q in f.points_checked]
-            if bound and all(self.arm_point(s, m, p, q) is None for q in bound):
-                fails.append(f"an open point of {bound[0]} that {m} reaches")
-            if self.table is not None:
-                fails.extend(self.table.hold_failures(s, p))
-        elif n in PROPERTIES:
-            if self.table is None:
-                fails.append("plannedConfiguration")
-            else:
-                fails.extend(self.table.sense_failures(s, n, p))
-        elif n == "attach":
-            fails.extend(self._attach_preconditions(s, a))
-        elif n == "unhold":
-            held = self.held_by(s, x[0])
-            need(bool(held), f"holding({x[0]},_)")
-            if held:
-                h = held[0]
-                carries = any(y[0] == "attached" and y[2] == h for y in s)
-                fails.extend(self.point_failures(s, x[0], h))
-                if f.points_checked:
-                    need(self.is_attached(s, h), f"attached({h},_,_)")
-                else:
-                    need(
-                        self.is_attached(s, h) or carries,
-                        f"attached({h},_,_) or attached(_,{h},_)",
-                    )
-        elif n == "humanHolding":
-            need(HUMAN_FREE not in s, "not humanFree")
-            need(HUMAN_HOLDING not in s, "not humanHolding")
-        elif n == "humanHoldingWhichPart":
-            need(HUMAN_HOLDING in s, "humanHolding")
-            need(not any(y[0] == "humanHoldingPart" for y in s), "not humanHoldingPart(_)")
-        elif n == "humanUnholding":
-            need(("reserved", p) in s, f"reserved({p})")
-            need(("keepsHolding", p) not in s, f"not keepsHolding({p})")
-        elif n == "humanAttachingWhere":
-            need(any(y[1:] == (p, q) for y in self.tasks(s)), f"a pending task on ({p},{q})")
-        elif n == "confirmAttach":
-            need(("reserved", p) not in s, f"not reserved({p})")
-        elif n == "askHelp":
-            for m in f.manipulators:
-                need((m, p) not in f.reachable, f"not reachable({m},{p})")
-            need(("declined", p, q) not in s, f"not declined({p},{q})")
-        elif n == "offerHelp":
-            need(p in f.dangerous, f"dangerous({p})")
-            need(any((m, p) in f.reachable for m in f.manipulators), f"reachable(_,{p})")
-        elif n == "requestToAttach":
-            need(("declined", p, q) in s, f"declined({p},{q})")
-        if n in CONVERSATION:
-            need(f.verbosity in ("normal", "chatty"), "verbosity normal or chatty")
-            if n.startswith("explain"):
-                need(f.verbosity == "chatty", "verbosity chatty")
-        return fails, safety
+    def _hold_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        f = self.f
+        m, p = a.args
+        fails = _unmet(
+            (self.free(s, m), f"free({m})"),
+            (p in f.movable, f"movable({p})"),
+            (self.loose(s, p), f"loose({p})"),
+            ((m, p) in f.reachable, f"reachable({m},{p})"),
+        )
+        if self.in_reach(p):
+            fails += _unmet((self.human_knows_not(s, p), f"humanKnowsNot({p})"))
+        fails += _unmet((self.still_needed(s, p), f"stillNeeded({p})"))
+        bound = [q for q in self.goal_onto(p) if q in f.points_checked]
+        if bound and all(self.arm_point(s, m, p, q) is None for q in bound):
+            fails.append(f"an open point of {bound[0]} that {m} reaches")
+        if self.table is not None:
+            fails += self.table.hold_failures(s, p)
+        return fails
 
-    def _attach_preconditions(self, s: State, a: Action) -> list[str]:
+    def _sense_property_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        if self.table is None:
+            return ["plannedConfiguration"]
+        return self.table.sense_failures(s, a.name, a.args[0])
+
+    def _unhold_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        m = a.args[0]
+        held = self.held_by(s, m)
+        if not held:
+            return [f"holding({m},_)"]
+        h = held[0]
+        fails = self.point_failures(s, m, h)
+        if self.f.points_checked:
+            return fails + _unmet((self.is_attached(s, h), f"attached({h},_,_)"))
+        carries = any(y[0] == "attached" and y[2] == h for y in s)
+        return fails + _unmet(
+            (self.is_attached(s, h) or carries, f"attached({h},_,_) or attached(_,{h},_)")
+        )
+
+    def _human_holding_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        return _unmet(
+            (HUMAN_FREE not in s, "not humanFree"),
+            (HUMAN_HOLDING not in s, "not humanHolding"),
+        )
+
+    def _which_part_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        return _unmet(
+            (HUMAN_HOLDING in s, "humanHolding"),
+            (not any(y[0] == "humanHoldingPart" for y in s), "not humanHoldingPart(_)"),
+        )
+
+    def _unholding_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        p = a.args[0]
+        return _unmet(
+            (("reserved", p) in s, f"reserved({p})"),
+            (("keepsHolding", p) not in s, f"not keepsHolding({p})"),
+        )
+
+    def _attaching_where_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        p, q = a.args
+        return _unmet((any(y[1:] == (p, q) for y in self.tasks(s)), f"a pending task on ({p},{q})"))
+
+    def _confirm_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        p = a.args[0]
+        return _unmet((("reserved", p) not in s, f"not reserved({p})"))
+
+    def _ask_help_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        p, q = a.args
+        robot = [
+            ((m, p) not in self.f.reachable, f"not reachable({m},{p})") for m in self.f.manipulators
+        ]
+        return _unmet(*robot, (("declined", p, q) not in s, f"not declined({p},{q})"))
+
+    def _offer_help_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        p = a.args[0]
+        return _unmet(
+            (p in self.f.dangerous, f"dangerous({p})"),
+            (any((m, p) in self.f.reachable for m in self.f.manipulators), f"reachable(_,{p})"),
+        )
+
+    def _request_attach_preconditions(self, s: SimState, a: SimAction) -> list[str]:
+        p, q = a.args
+        return _unmet((("declined", p, q) in s, f"declined({p},{q})"))
+
+    def _talk_preconditions(self, a: SimAction) -> list[str]:
+        verbosity = self.f.verbosity
+        fails = _unmet((verbosity in ("normal", "chatty"), "verbosity normal or chatty"))
+        if a.name.startswith("explain"):
+            fails += _unmet((verbosity == "chatty", "verbosity chatty"))
+        return fails
+
+    def _attach_preconditions(self, s: SimState, a: SimAction) -> list[str]:
         m, q, c = a.args
         held = self.held_by(s, m)
         if not held:
@@ -452,7 +343,7 @@ class Domain:
         return fails
 
     # -- outcomes
-    def outcomes(self, s: State, a: Action) -> dict[str | None, State] | None:
+    def outcomes(self, s: SimState, a: SimAction) -> dict[str | None, SimState] | None:
         """Successor state per outcome label (None: deterministic), or None if
         the action cannot be simulated at all (attach/unhold of nothing held)."""
         n, x = a.name, a.args
@@ -507,10 +398,10 @@ class Domain:
             return {None: (s - hand - {("keepsHolding", p)}) | {HUMAN_FREE, ("reserved", p)}}
         if n == "requestToAttach":
             return {None: (s - {HUMAN_FREE}) | {("requestedAttach", p, q), *hand}}
-        raise AssertionError(f"unhandled action {a.text}")  # parse_action admits no other
+        raise AssertionError(f"unhandled action {a.text}")  # parse_sim_action admits no other
 
     # -- goal and consistency
-    def goal_failures(self, s: State) -> list[str]:
+    def goal_failures(self, s: SimState) -> list[str]:
         out = [] if self.table is None else self.table.stable_failures(s)
         out += [
             f"{p} is not attached to {q}"
@@ -520,3 +411,31 @@ class Domain:
         out += [f"{y[1]} still holds {y[2]}" for y in sorted(s) if y[0] == "holding"]
         out += [f"pending task {fluent_str(t)}" for t in self.tasks(s)]
         return out
+
+
+# Families of actions that share preconditions (docs/domain.md).
+_HUMAN_ATTACHES = frozenset({"confirmAttach", "askHelp", "offerHelp", "requestToAttach"})
+_HUMAN_FETCHES = frozenset({"askHelp", "requestToAttach"})  # a loose part, from the bench
+_INVOLVE_HUMAN = frozenset({"askHelp", "requestToAttach", "requestToUnhold", "confirmAttach"})
+_NO_TASK = _HUMAN_ATTACHES | {"requestToUnhold", "humanUnholding"}
+_ABOUT_HELD_PART = frozenset({"confirmAttach", "offerHelp", "requestToUnhold", "humanUnholding"})
+
+# Each action's own preconditions, beyond its families'.
+_OWN_PRECONDITIONS: dict[str, Callable[[Domain, SimState, SimAction], list[str]]] = {
+    "hold": Domain._hold_preconditions,
+    "attach": Domain._attach_preconditions,
+    "unhold": Domain._unhold_preconditions,
+    "humanHolding": Domain._human_holding_preconditions,
+    "humanHoldingWhichPart": Domain._which_part_preconditions,
+    "humanUnholding": Domain._unholding_preconditions,
+    "humanAttachingWhere": Domain._attaching_where_preconditions,
+    "confirmAttach": Domain._confirm_preconditions,
+    "askHelp": Domain._ask_help_preconditions,
+    "offerHelp": Domain._offer_help_preconditions,
+    "requestToAttach": Domain._request_attach_preconditions,
+}
+
+
+def _unmet(*checks: tuple[bool, str]) -> list[str]:
+    """The names of the preconditions that do not hold, in the order given."""
+    return [name for ok, name in checks if not ok]

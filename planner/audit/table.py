@@ -9,9 +9,7 @@ whether a state is a stable table. The ASP side is `planner/asp/configuration.lp
 from __future__ import annotations
 
 from planner.audit.facts import Facts
-
-Fluent = tuple[str, ...]
-State = frozenset[Fluent]
+from planner.audit.fluents import SimState
 
 # Sensing query -> (the fluent it adds, the facts' options it reads).
 PROPERTIES = {"shapeOf": "shapeIs", "lengthOf": "lengthIs"}
@@ -25,7 +23,7 @@ class PlannedTable:
     def _options(self, query: str, part: str) -> list[str]:
         return (self.f.shapes if query == "shapeOf" else self.f.lengths).get(part, [])
 
-    def known(self, s: State, query: str, part: str) -> str | None:
+    def known(self, s: SimState, query: str, part: str) -> str | None:
         """The shape (`shapeOf`) or length (`lengthOf`) of `part` known in `s`, or None."""
         options = self._options(query, part)
         if len(options) == 1:
@@ -33,7 +31,7 @@ class PlannedTable:
         fluent = PROPERTIES[query]
         return next((x[2] for x in sorted(s) if x[0] == fluent and x[1] == part), None)
 
-    def _may(self, s: State, query: str, part: str) -> list[str]:
+    def _may(self, s: SimState, query: str, part: str) -> list[str]:
         """What the property may still be: the known value, else every option."""
         seen = self.known(s, query, part)
         return [seen] if seen is not None else self._options(query, part)
@@ -43,19 +41,19 @@ class PlannedTable:
         return [q for q in PROPERTIES if len(self._options(q, part)) > 1]
 
     # -- sensing what a part is
-    def sense_failures(self, s: State, query: str, part: str) -> list[str]:
+    def sense_failures(self, s: SimState, query: str, part: str) -> list[str]:
         if len(self._options(query, part)) < 2:
             return [f"{part} has options to sense"]
         if self.known(s, query, part) is not None:
             return [f"not {PROPERTIES[query]}({part},_)"]
         return []
 
-    def sense_outcomes(self, s: State, query: str, part: str) -> dict[str | None, State]:
+    def sense_outcomes(self, s: SimState, query: str, part: str) -> dict[str | None, SimState]:
         fluent = PROPERTIES[query]
         return {v: s | {(fluent, part, v)} for v in self._options(query, part)}
 
     # -- joining the table
-    def fit_failures(self, s: State, p: str, q: str) -> list[str]:
+    def fit_failures(self, s: SimState, p: str, q: str) -> list[str]:
         """Why P may not join Q yet: a foot must be seen to fit its leg's hole; a
         leg on the top must be seen to have the length of the legs already there."""
         if (p, q) not in self.f.goal_options and not self._fit_by_shape(p, q):
@@ -75,7 +73,7 @@ class PlannedTable:
         # A foot and a leg whose known shapes differ are reported as a misfit below.
         return p in self.f.shapes and q in self.f.shapes and q != self.top
 
-    def hold_failures(self, s: State, part: str) -> list[str]:
+    def hold_failures(self, s: SimState, part: str) -> list[str]:
         """A part is grasped only once what it is is known (it may fit nowhere),
         and not while an arm holds a part attached to it (arms move one at a time)."""
         out = [
@@ -92,10 +90,10 @@ class PlannedTable:
         return out
 
     # -- the goal
-    def _on(self, s: State, q: str) -> list[str]:
+    def _on(self, s: SimState, q: str) -> list[str]:
         return sorted(x[1] for x in s if x[0] == "attached" and x[2] == q)
 
-    def stable_failures(self, s: State) -> list[str]:
+    def stable_failures(self, s: SimState) -> list[str]:
         """Why `s` is not a stable table (docs/scenario.md), [] if it is."""
         out: list[str] = []
         legs = self._on(s, self.top)

@@ -11,7 +11,9 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from planner.audit.domain import CONVERSATION, Domain, State, parse_action, parse_state
+from planner.audit.actions import CONVERSATION, parse_sim_action
+from planner.audit.domain import Domain
+from planner.audit.fluents import SimState, parse_sim_state
 
 # The order of what is said before one node.
 _TURN = {
@@ -24,7 +26,7 @@ _TURN = {
 }
 
 
-def due(dom: Domain, s: State, action: str | None, *, first: bool) -> list[str]:
+def due(dom: Domain, s: SimState, action: str | None, *, first: bool) -> list[str]:
     """What the robot says just before `action` in `s` (None: a goal), in order;
     `first`: the node starts the plan."""
     f = dom.f
@@ -36,7 +38,7 @@ def due(dom: Domain, s: State, action: str | None, *, first: bool) -> list[str]:
     if action is None:
         out.append((4, "farewell"))
         return [text for _, text in sorted(out)]
-    parsed = parse_action(action, f)
+    parsed = parse_sim_action(action, f)
     if isinstance(parsed, str) or parsed.name in CONVERSATION:
         return [text for _, text in sorted(out)]
     name, args = parsed.name, parsed.args
@@ -69,61 +71,60 @@ def conversation_problems(
     dom: Domain,
     nodes: dict[str, Any],
     root: str,
-    state_of: Callable[[str], tuple[State, list[str]]] | None = None,
+    state_of: Callable[[str], tuple[SimState, list[str]]] | None = None,
 ) -> Iterator[tuple[str, str]]:
     """(node, message) for each place where a branch says too little, too much, or
     out of order: every run of talk must be what its next node needs. `state_of`
     gives a node's parsed state (the audit's walk has them already)."""
-
-    def parsed(node_id: str) -> tuple[State, list[str]]:
-        if state_of is not None:
-            return state_of(node_id)
-        return parse_state(nodes[node_id].get("state"))
-
-    def action(node_id: str) -> str | None:
-        raw = nodes[node_id]
-        text = raw.get("action")
-        return text if isinstance(text, str) else None
-
-    def talk(node_id: str) -> str | None:
-        text = action(node_id)
-        if text is None:
-            return None
-        name = text.split("(", 1)[0]
-        return text if name in CONVERSATION else None
-
-    def children(node_id: str) -> list[str]:
-        kids = nodes[node_id].get("children")
-        return [k["node"] for k in kids if k.get("node") in nodes] if isinstance(kids, list) else []
-
+    parsed = state_of or (lambda node_id: parse_sim_state(nodes[node_id].get("state")))
     # Every run of talk starts at the root or after a node of the task.
     starts: list[tuple[str, bool]] = [(root, True)]
     for node_id in nodes:
-        if talk(node_id) is None:
-            starts += [(kid, False) for kid in children(node_id)]
-    checked: set[tuple[str, bool]] = set()
-    for start, first in starts:
-        if (start, first) in checked:
-            continue
-        checked.add((start, first))
-        said: list[str] = []
-        node_id = start
-        while (text := talk(node_id)) is not None and len(said) <= len(nodes):
-            said.append(text)
-            kids = children(node_id)
-            if len(kids) != 1:
-                break  # malformed: reported by the walk
-            node_id = kids[0]
-        if talk(node_id) is not None:
+        if _talk(nodes, node_id) is None:
+            starts += [(kid, False) for kid in _children(nodes, node_id)]
+    for start, first in dict.fromkeys(starts):
+        said, node_id = _run_of_talk(nodes, start)
+        if _talk(nodes, node_id) is not None:
             continue
         state, errors = parsed(node_id)
         if errors:
             continue
-        needed = due(dom, state, action(node_id), first=first)
+        needed = due(dom, state, _action(nodes, node_id), first=first)
         if said != needed:
-            what = action(node_id) or "the goal"
+            what = _action(nodes, node_id) or "the goal"
             yield (
                 node_id,
-                f"conversation before {what}: said [{', '.join(said)}], "
-                f"due [{', '.join(needed)}]",
+                f"conversation before {what}: said [{', '.join(said)}], due [{', '.join(needed)}]",
             )
+
+
+def _run_of_talk(nodes: dict[str, Any], start: str) -> tuple[list[str], str]:
+    """What is said from `start` on, and the node after it (a talk node if the run
+    is malformed: a talk node without exactly one child, or a loop)."""
+    said: list[str] = []
+    node_id = start
+    while (text := _talk(nodes, node_id)) is not None and len(said) <= len(nodes):
+        said.append(text)
+        kids = _children(nodes, node_id)
+        if len(kids) != 1:
+            break  # malformed: reported by the walk
+        node_id = kids[0]
+    return said, node_id
+
+
+def _action(nodes: dict[str, Any], node_id: str) -> str | None:
+    text = nodes[node_id].get("action")
+    return text if isinstance(text, str) else None
+
+
+def _talk(nodes: dict[str, Any], node_id: str) -> str | None:
+    """The node's action if it is part of the conversation."""
+    text = _action(nodes, node_id)
+    if text is None:
+        return None
+    return text if text.split("(", 1)[0] in CONVERSATION else None
+
+
+def _children(nodes: dict[str, Any], node_id: str) -> list[str]:
+    kids = nodes[node_id].get("children")
+    return [k["node"] for k in kids if k.get("node") in nodes] if isinstance(kids, list) else []

@@ -126,7 +126,7 @@ class BenchChecks:
         `hope` is told, while the pool checks paths, the answers hoped for: every
         pair (points too, as Site texts) with an IK answer that meets its grasp
         counted reachable (on the paper's benches, every one is), so that what
-        follows from them can start (`hcp.ground_ahead`)."""
+        follows from them can start (`branch_planner.ground_ahead`)."""
         pairs = self.pairs()
         points = [(arm, str(site)) for arm, site in self.point_sites()]
         todo = []

@@ -8,7 +8,6 @@ z = BENCH_TOP_Z and the robot base at `scenario.robot.base_pose` (x, y, yaw).
 from __future__ import annotations
 
 import hashlib
-import math
 import os
 import tempfile
 from collections.abc import Callable
@@ -154,10 +153,6 @@ class BaxterBody:
             physicsClientId=self.client,
         )
 
-    def get_arm(self, arm: str) -> list[float]:
-        states = pb.getJointStates(self.body, self.arm_joints[arm], physicsClientId=self.client)
-        return [float(s[0]) for s in states]
-
     def go_home(self) -> None:
         for arm in ARMS:
             self.set_arm(arm, HOME[arm])
@@ -165,12 +160,6 @@ class BaxterBody:
     def within_limits(self, arm: str, q: list[float], tol: float = 1e-6) -> bool:
         lo, hi = self.lower[arm], self.upper[arm]
         return all(lo[i] - tol <= v <= hi[i] + tol for i, v in enumerate(q))
-
-    def self_collision(self) -> bool:
-        """True if two robot links touch (disabled pairs excepted); call after detection."""
-        return bool(
-            pb.getContactPoints(bodyA=self.body, bodyB=self.body, physicsClientId=self.client)
-        )
 
 
 def load_robot(client: int, base_pose: list[float], urdf: Path | None = None) -> BaxterBody:
@@ -262,7 +251,3 @@ def _disable_harmless_pairs(robot: BaxterBody) -> None:
                 pairs.add((robot.link[l_name], robot.link[r_name]))
     for i, j in pairs:
         pb.setCollisionFilterPair(robot.body, robot.body, i, j, 0, physicsClientId=robot.client)
-
-
-def yaw_to_quat(yaw: float) -> list[float]:
-    return [0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)]

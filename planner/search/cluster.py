@@ -19,7 +19,7 @@ from concurrent.futures import Future
 from typing import TYPE_CHECKING, Any, TypeVar
 
 if TYPE_CHECKING:
-    from planner.search.hcp import BranchResult, Problem
+    from planner.search.branch_planner import BranchResult, Problem
     from planner.vocabulary import State
 
 T = TypeVar("T")
@@ -92,10 +92,11 @@ def map_tasks(function: Callable[[T], R], items: Sequence[T]) -> list[R]:
 
 
 class _Actor:
-    """One actor's state: the branch planner of `planner.search.hcp`, grounded once per horizon."""
+    """One actor's state: a branch planner (`planner.search.branch_planner`), grounded
+    once per horizon."""
 
     def __init__(self, problem: Problem) -> None:
-        from planner.search.hcp import BranchPlanner  # the local workers' own planner
+        from planner.search.branch_planner import BranchPlanner  # the local workers' own
 
         self.planner = BranchPlanner(problem)
 

@@ -60,6 +60,11 @@ class HopedPlanning:
                 self._told_planned(self._planned)
             self._planned = []
 
+    @property
+    def planning(self) -> bool:
+        """Whether the plan is still being built (in its own thread)."""
+        return self._thread.is_alive()
+
     def result(self) -> State:
         """The root, once the plan is built (`ConditionalPlanner.build`'s errors too)."""
         self._thread.join()

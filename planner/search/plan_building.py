@@ -38,50 +38,89 @@ def build_plan(
     complete plan, by their `ids` (`conversation.talk_about`), put in as
     communication nodes just before them."""
     ids = number_states(nodes, root) if ids is None else ids
-    fact_set = frozenset(facts)
-    verbosity = _fact_value(facts, "verbosity") or ""
-    language = (_fact_value(facts, "language") or "en-us").strip('"')
-    talk = said or {}
+    writer = _NodeWriter(nodes, ids, said or {}, facts, complete=timings is not None)
+    numbered = writer.numbering(root)
+    plan = Plan(
+        scenario=ScenarioRef(name=scenario_name, sha256=scenario_sha256),
+        facts=sorted(facts),
+        root=numbered[(root, 0)],
+        nodes={node_id: writer.node(key, numbered) for key, node_id in numbered.items()},
+    )
+    if timings is not None:
+        plan.stats = {**tree_stats(plan), "plan_s": round(timings[0], 3)}
+        plan.stats["checks_s"] = round(timings[1], 3)
+    return plan
 
-    def chain(state: State) -> int:
-        return len(talk.get(ids[state], ()))
 
-    # (state, i): the i-th sentence said before the state's node, or (i = chain) the
-    # node itself; edges go into (state, 0). The talk shifts the numbering, so the
-    # nodes are numbered again.
-    numbered: dict[tuple[State, int], str]
-    if talk:
-        order = walks.with_chains(root, lambda s: [c for _, c in nodes[s].children], chain)
-        numbered = {key: f"n{i}" for i, key in enumerate(order)}
-    else:
-        numbered = {(state, 0): node_id for state, node_id in ids.items()}
-    out: dict[str, PlanNode] = {}
-    for (state, i), node_id in numbered.items():
-        node = nodes.get(state)
-        if node is None or (node.action is None and not node.goal):
-            # Still open while planning goes on: a leaf for now.
-            out[node_id] = PlanNode(kind="open", action=None, state=sorted(state), children=[])
-            continue
-        if i < chain(state):
-            sentence = talk[ids[state]][i]
-            reason = phrases.why(sentence, state, fact_set)
-            out[node_id] = PlanNode(
-                kind="communication",
-                action=sentence,
-                state=sorted(state),
-                children=[Child(outcome=None, node=numbered[(state, i + 1)])],
-                say=phrases.say(sentence, verbosity, reason, language),
-                why=reason,
-            )
-            continue
-        kind, action = kind_and_action(node)
-        say = why = None
+# (state, i): the i-th sentence said before the state's node, or (i = the number of
+# sentences) the node itself; edges go into (state, 0).
+_Key = tuple["State", int]
+
+
+class _NodeWriter:
+    """The plan nodes of a DAG's states, and of the sentences said before them."""
+
+    def __init__(
+        self,
+        nodes: Mapping[State, DagNode],
+        ids: Mapping[State, str],
+        talk: Mapping[str, Sequence[Communication]],
+        facts: list[str],
+        *,
+        complete: bool,
+    ) -> None:
+        self.nodes = nodes
+        self.ids = ids
+        self.talk = talk
+        self.facts = frozenset(facts)
+        self.verbosity = _fact_value(facts, "verbosity") or ""
+        self.language = (_fact_value(facts, "language") or "en-us").strip('"')
         # A partial plan is redrawn twice a second while planning goes on: its
         # sentences wait for the complete plan.
-        if isinstance(action, Communication) and timings is not None:
-            why = phrases.why(action, state, fact_set)
-            say = phrases.say(action, verbosity, why, language)
-        out[node_id] = PlanNode(
+        self.complete = complete
+
+    def chain(self, state: State) -> int:
+        """How many sentences are said before the state's node."""
+        return len(self.talk.get(self.ids[state], ()))
+
+    def numbering(self, root: State) -> dict[_Key, str]:
+        """Node ids of the states and sentences. The talk shifts the numbering, so
+        the nodes are numbered again."""
+        if not self.talk:
+            return {(state, 0): node_id for state, node_id in self.ids.items()}
+        nodes = self.nodes
+        order = walks.with_chains(root, lambda s: [c for _, c in nodes[s].children], self.chain)
+        return {key: f"n{i}" for i, key in enumerate(order)}
+
+    def node(self, key: _Key, numbered: Mapping[_Key, str]) -> PlanNode:
+        state, i = key
+        node = self.nodes.get(state)
+        if node is None or (node.action is None and not node.goal):
+            # Still open while planning goes on: a leaf for now.
+            return PlanNode(kind="open", action=None, state=sorted(state), children=[])
+        if i < self.chain(state):
+            return self._sentence(state, i, numbered)
+        return self._planned(state, node, numbered)
+
+    def _sentence(self, state: State, i: int, numbered: Mapping[_Key, str]) -> PlanNode:
+        sentence = self.talk[self.ids[state]][i]
+        reason = phrases.why(sentence, state, self.facts)
+        return PlanNode(
+            kind="communication",
+            action=sentence,
+            state=sorted(state),
+            children=[Child(outcome=None, node=numbered[(state, i + 1)])],
+            say=phrases.say(sentence, self.verbosity, reason, self.language),
+            why=reason,
+        )
+
+    def _planned(self, state: State, node: DagNode, numbered: Mapping[_Key, str]) -> PlanNode:
+        kind, action = kind_and_action(node)
+        say = why = None
+        if isinstance(action, Communication) and self.complete:
+            why = phrases.why(action, state, self.facts)
+            say = phrases.say(action, self.verbosity, why, self.language)
+        return PlanNode(
             kind=kind,
             action=action,
             state=sorted(state),
@@ -96,16 +135,6 @@ def build_plan(
             say=say,
             why=why,
         )
-    plan = Plan(
-        scenario=ScenarioRef(name=scenario_name, sha256=scenario_sha256),
-        facts=sorted(facts),
-        root=numbered[(root, 0)],
-        nodes=out,
-    )
-    if timings is not None:
-        plan.stats = {**tree_stats(plan), "plan_s": round(timings[0], 3)}
-        plan.stats["checks_s"] = round(timings[1], 3)
-    return plan
 
 
 def kind_and_action(node: DagNode) -> tuple[str, Action | None]:

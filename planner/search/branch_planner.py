@@ -1,0 +1,184 @@
+"""The worker side of the search: one branch, a sequential plan from a state.
+
+A `BranchPlanner` grounds the domain once per horizon and solves many states
+(ground once, solve many); the coordinator (`planner.search.hcp`) holds one in
+its own process, each worker process one, each Ray actor one
+(`planner.search.cluster`). What it needs to ground is a `Problem`.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import threading
+import time
+from concurrent.futures import Future
+from dataclasses import dataclass, replace
+
+from planner.search.encoding import FeasibilityContext
+from planner.search.solver import BranchSolver, SequentialPlan, StepProgram, Successor
+from planner.vocabulary import Action, State
+
+# A branch longer than the horizon is retried with 2, 4, ... times it, up to this factor.
+MAX_HORIZON_FACTOR = 8
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What a worker needs to ground the domain: facts and feasibility answers."""
+
+    facts: tuple[str, ...]
+    reachable: frozenset[tuple[str, str]]
+    horizon: int
+    skip: tuple[str, ...] = ()
+    # Answers that depend on the state alone (solver.HISTORY_FREE): set by the
+    # planner whenever several processes or actors solve, so that their number
+    # and the schedule never change the plan.
+    history_free: bool = False
+    # Look for a plan one step shorter than the horizon first (`_sequential`): set
+    # by the planner where most milestones cost nothing beyond their steps.
+    short_first: bool = False
+    # Planning programs preprocessed by clasp, by horizon (`planner.search.preprocessing`):
+    # every process solves a horizon with the same program, made once.
+    programs: tuple[tuple[int, str], ...] = ()
+
+
+@dataclass(frozen=True)
+class PlannedStep:
+    state: State
+    action: Action
+    chosen: str | None
+    outcomes: tuple[Successor, ...]
+
+
+@dataclass(frozen=True)
+class BranchResult:
+    """A sequential plan from `start` (empty: `start` is a goal), or None: dead end."""
+
+    start: State
+    steps: tuple[PlannedStep, ...] | None
+    horizon: int
+    solve_s: float
+    checks: int
+    start_goal: bool = False
+    # The plan of an interchangeable state's solve, renamed (`planner.search.symmetry`):
+    # no solve of its own.
+    reused: bool = False
+
+
+_worker: BranchPlanner | None = None
+
+
+class BranchPlanner:
+    """Per-process solvers, one per horizon, grounded when first needed."""
+
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
+        self.context = FeasibilityContext(lambda m, p: (m, p) in problem.reachable)
+        self.solvers: dict[int, BranchSolver] = {}
+        # Grounds aside from now on: the first branch lists outcomes within
+        # milliseconds of its first solve.
+        self.step = StepProgram(problem.facts, self.context, problem.skip)
+
+    def solver(self, horizon: int) -> BranchSolver:
+        if horizon not in self.solvers:
+            self.solvers[horizon] = BranchSolver(
+                self.problem.facts,
+                horizon,
+                self.context,
+                skip=self.problem.skip,
+                history_free=self.problem.history_free,
+                program=dict(self.problem.programs).get(horizon),
+                step=self.step,
+            )
+        return self.solvers[horizon]
+
+    def branch(self, start: State, forbid: frozenset[str]) -> BranchResult:
+        t0 = time.perf_counter()
+        calls0 = self.context.calls
+        found, horizon = self._sequential(start, forbid)
+        planned = None
+        if found is not None:
+            solver = self.solver(self.problem.horizon)
+            planned = tuple(
+                PlannedStep(
+                    s.state,
+                    s.action,
+                    s.outcome,
+                    # Deterministic steps: the plan itself says what follows.
+                    (Successor(None, s.after, s.after_goal),)
+                    if s.outcome is None
+                    else tuple(solver.outcomes(s.state, s.action)),
+                )
+                for s in found.steps
+            )
+        return BranchResult(
+            start,
+            planned,
+            horizon,
+            time.perf_counter() - t0,
+            self.context.calls - calls0,
+            found is not None and found.start_goal,
+        )
+
+    def _sequential(
+        self, start: State, forbid: frozenset[str]
+    ) -> tuple[SequentialPlan | None, int]:
+        """An optimal plan from `start` to its next milestone, and the horizon it is
+        optimal for.
+
+        With `Problem.short_first`, a plan one step shorter than the horizon is
+        looked for first, in a program a step smaller: most milestones take fewer
+        steps (U14: 855 of 865 solves), and such a plan that costs nothing beyond
+        its steps is optimal for the horizon too (`solver.STEP_PRIORITY`); other
+        plans are looked for again in the horizon's program. A branch that needs
+        more steps than the horizon is retried with longer ones before it is
+        called a dead end.
+        """
+        horizon = self.problem.horizon
+        if self.problem.short_first and horizon > 1:
+            short = self.solver(horizon - 1).plan(start, forbid)
+            if short is not None and short.steps_cost_only:
+                return short, horizon
+        while True:
+            found = self.solver(horizon).plan(start, forbid)
+            if found is not None or horizon * 2 > self.problem.horizon * MAX_HORIZON_FACTOR:
+                return found, horizon
+            horizon *= 2
+
+
+def as_solved(problem: Problem, workers: int, *, engine: bool = False) -> Problem:
+    """`problem` as a planner with `workers` processes (0: one per core), or an
+    engine, solves it: history-free wherever several solve (`Problem.history_free`)."""
+    shared = engine or (workers or mp.cpu_count()) > 1
+    return replace(problem, history_free=True) if shared else problem
+
+
+def ground_ahead(problem: Problem) -> Future[BranchPlanner]:
+    """The solvers of `problem`, grounded in a thread (clingo grounds outside the
+    GIL) before planning starts: a planner given them (`hcp.PlannerSettings.ahead`)
+    solves at once if its problem is this one, and grounds anew otherwise."""
+    ready: Future[BranchPlanner] = Future()
+
+    def ground() -> None:
+        try:
+            planner = BranchPlanner(problem)
+            planner.solver(problem.horizon)
+            planner.step.get()  # its own thread: done too when this future is
+            ready.set_result(planner)
+        except BaseException as err:  # noqa: BLE001 - the planner grounds anew
+            ready.set_exception(err)
+
+    threading.Thread(target=ground, name="tandem-ground-ahead", daemon=True).start()
+    return ready
+
+
+def start_worker(problem: Problem) -> None:
+    """A worker process's start: its branch planner, grounded when first asked."""
+    global _worker
+    _worker = BranchPlanner(problem)
+
+
+def run_branch(start: State, forbid: frozenset[str]) -> BranchResult:
+    """A branch solved in a worker process (`start_worker`)."""
+    assert _worker is not None
+    return _worker.branch(start, forbid)
