@@ -18,7 +18,7 @@ from PIL import Image
 pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, expect, sync_playwright  # noqa: E402
 
-from app.dashboard.server import Dashboard  # noqa: E402
+from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from tests.plan_fixtures import free_port  # noqa: E402
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
@@ -49,9 +49,11 @@ def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
     mine = tmp_path_factory.mktemp("lab-scenarios")
     (mine / "bad.toml").write_text('name = "bad"\n[[parts]]\nid = "top"\n')
     d = Dashboard(
-        "127.0.0.1", free_port(), "default.toml", workers=1, cache_dir=cache,
-        scenario_dirs=[mine],
-    )  # fmt: skip
+        "127.0.0.1",
+        free_port(),
+        "default.toml",
+        DashboardSettings(workers=1, cache_dir=cache, scenario_dirs=[mine]),
+    )
     yield d
     d.close()
 

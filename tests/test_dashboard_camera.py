@@ -18,7 +18,7 @@ pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
 
 from app.dashboard.camera_panel import VIEW_WIDTH  # noqa: E402
-from app.dashboard.server import Dashboard  # noqa: E402
+from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from app.execution.events import REPAIR  # noqa: E402
 from app.execution.walker import Executor  # noqa: E402
 from app.responses.camera import LiveAnswers  # noqa: E402
@@ -52,10 +52,16 @@ def browser() -> Iterator[Browser]:
 def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
     # No robot meshes: the camera panel does not need them, and they cost seconds.
     d = Dashboard(
-        "127.0.0.1", free_port(), "default.toml", workers=1,
-        cache_dir=str(tmp_path_factory.mktemp("cache")),
-        data_dir=str(tmp_path_factory.mktemp("data")), load_models=False,
-    )  # fmt: skip
+        "127.0.0.1",
+        free_port(),
+        "default.toml",
+        DashboardSettings(
+            workers=1,
+            cache_dir=str(tmp_path_factory.mktemp("cache")),
+            data_dir=str(tmp_path_factory.mktemp("data")),
+            load_models=False,
+        ),
+    )
     yield d
     d.close()
 
@@ -203,9 +209,7 @@ def test_a_surprise_the_live_camera_sees_is_repaired(page: Page, dashboard: Dash
     assert any(e.kind == "sensing" and e.source == "camera" for e in after), after
 
 
-def test_a_missing_camera_is_one_line_and_clicks_answer(
-    page: Page, dashboard: Dashboard
-) -> None:
+def test_a_missing_camera_is_one_line_and_clicks_answer(page: Page, dashboard: Dashboard) -> None:
     panel = dashboard.camera_panel
     panel.kind.value = "webcam"
     panel.where.value = "63"

@@ -13,7 +13,7 @@ ray = pytest.importorskip("ray", reason="Ray is not installed: pip install 'tand
 from playwright.sync_api import Browser, Page  # noqa: E402
 
 from app.dashboard.plan_panel import RAY  # noqa: E402
-from app.dashboard.server import Dashboard  # noqa: E402
+from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from planner.planning import plan_scenario  # noqa: E402
 from tests.plan_fixtures import ROOT, free_port, tandem_command  # noqa: E402
 from tests.test_dashboard import browser, field, open_page, wait_for  # noqa: E402, F401
@@ -22,10 +22,15 @@ from tests.test_dashboard import browser, field, open_page, wait_for  # noqa: E4
 @pytest.fixture(scope="module")
 def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
     d = Dashboard(
-        "127.0.0.1", free_port(), "declared.toml", workers=2,
-        cache_dir=str(tmp_path_factory.mktemp("cache")),
-        data_dir=str(tmp_path_factory.mktemp("data")),
-    )  # fmt: skip
+        "127.0.0.1",
+        free_port(),
+        "declared.toml",
+        DashboardSettings(
+            workers=2,
+            cache_dir=str(tmp_path_factory.mktemp("cache")),
+            data_dir=str(tmp_path_factory.mktemp("data")),
+        ),
+    )
     yield d
     d.close()
     # The cluster the page started is this process's: leave none to later tests.

@@ -14,7 +14,7 @@ import pytest
 pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import sync_playwright  # noqa: E402
 
-from app.dashboard.server import Dashboard  # noqa: E402
+from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from app.sessions.store import SessionStore  # noqa: E402
 from tests.test_dashboard import CHROMIUM, free_port, wait_for  # noqa: E402
 
@@ -62,8 +62,12 @@ def test_killed_server_keeps_events_and_the_session_is_reviewed(tmp_path: Path) 
         assert session.result == "interrupted"
         assert store.events(session.id) == before
     # A restarted dashboard lists it and replays it.
-    dashboard = Dashboard("127.0.0.1", free_port(), "default.toml", data_dir=str(data),
-                          load_models=False)  # fmt: skip
+    dashboard = Dashboard(
+        "127.0.0.1",
+        free_port(),
+        "default.toml",
+        DashboardSettings(data_dir=str(data), load_models=False),
+    )
     try:
         labels = list(dashboard.review._ids)
         assert len(labels) == 1 and "interrupted" in labels[0]

@@ -117,7 +117,7 @@ def test_scenario_edits_validate_and_save(tmp_path: Path) -> None:
 
 def test_the_scenario_choice_names_what_is_loaded(tmp_path: Path) -> None:
     from app.dashboard.scenario_panel import OTHER_FILE
-    from app.dashboard.server import Dashboard
+    from app.dashboard.server import Dashboard, DashboardSettings
     from app.dashboard.stage import ScenarioChanged
     from tests.plan_fixtures import free_port
 
@@ -130,9 +130,11 @@ def test_the_scenario_choice_names_what_is_loaded(tmp_path: Path) -> None:
     outside.write_text(DEFAULT.read_text())
     shipped_declared = ROOT / "static" / "scenarios" / "declared.toml"
     dashboard = Dashboard(
-        "127.0.0.1", free_port(), str(shipped_declared), data_dir=str(tmp_path),
-        load_models=False,
-    )  # fmt: skip
+        "127.0.0.1",
+        free_port(),
+        str(shipped_declared),
+        DashboardSettings(data_dir=str(tmp_path), load_models=False),
+    )
     panel = dashboard.scenario_panel
     try:
         # The command line's shipped file is shadowed: no choice names it.
@@ -172,12 +174,15 @@ def test_the_scenario_choice_names_what_is_loaded(tmp_path: Path) -> None:
 
 
 def test_opening_a_scenario_is_no_edit_of_it(tmp_path: Path) -> None:
-    from app.dashboard.server import Dashboard
+    from app.dashboard.server import Dashboard, DashboardSettings
     from app.dashboard.stage import ScenarioChanged
     from tests.plan_fixtures import free_port
 
     dashboard = Dashboard(
-        "127.0.0.1", free_port(), "default.toml", data_dir=str(tmp_path), load_models=False
+        "127.0.0.1",
+        free_port(),
+        "default.toml",
+        DashboardSettings(data_dir=str(tmp_path), load_models=False),
     )
     panel = dashboard.scenario_panel
     try:

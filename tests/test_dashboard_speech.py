@@ -15,7 +15,7 @@ import pytest
 pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
 
-from app.dashboard.server import Dashboard  # noqa: E402
+from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from tests.plan_fixtures import KOREAN_DEFAULT  # noqa: E402
 from tests.test_dashboard import free_port, open_page, plan_shown, shot, wait_for  # noqa: E402
 
@@ -41,9 +41,11 @@ def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
     cache = str(tmp_path_factory.mktemp("cache"))
     data = str(tmp_path_factory.mktemp("data"))
     d = Dashboard(
-        "127.0.0.1", free_port(), str(KOREAN_DEFAULT), workers=1, cache_dir=cache,
-        data_dir=data, load_models=False,
-    )  # fmt: skip
+        "127.0.0.1",
+        free_port(),
+        str(KOREAN_DEFAULT),
+        DashboardSettings(workers=1, cache_dir=cache, data_dir=data, load_models=False),
+    )
     yield d
     d.close()
 

@@ -107,14 +107,17 @@ def test_a_surprise_that_cannot_be_planned_is_said_and_the_plan_goes_on(
 
 
 def test_the_review_switches_to_the_repaired_plan(tmp_path: Path) -> None:
-    from app.dashboard.server import Dashboard
+    from app.dashboard.server import Dashboard, DashboardSettings
 
     assert execute(SURPRISES["take"][0], tmp_path).returncode == 0
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     dashboard = Dashboard(
-        "127.0.0.1", port, "default.toml", data_dir=str(tmp_path / "data"), load_models=False
+        "127.0.0.1",
+        port,
+        "default.toml",
+        DashboardSettings(data_dir=str(tmp_path / "data"), load_models=False),
     )
     try:
         review = dashboard.review

@@ -17,13 +17,13 @@ import pytest
 from app.execution.events import ExecutionEvent, Outcome
 from app.execution.evidence import EVIDENCE_VERSION, CameraReading, Evidence, Truth
 from app.execution.walker import Executor
+from app.sessions.export import exported_event
 from app.sessions.processes import process_start
 from app.sessions.store import (
     DB_NAME,
     SessionStore,
     UnknownSession,
     default_data_dir,
-    exported_event,
 )
 from app.sources.outcomes import RandomSource
 from planner.plan.model import Plan, PlanNode, ScenarioRef

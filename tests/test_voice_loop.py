@@ -13,11 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from app.execution.narration import plan_language
+from app.execution.narration import RobotVoice, plan_language
 from app.execution.walker import Executor
 from app.sim.speaker import SimulatedSpeaker
 from app.sources.outcomes import FallbackSource, RandomSource
-from app.sources.voice import VoiceSource, is_question
+from app.sources.voice import VoiceHooks, VoiceSource, is_question
 from planner.plan.model import Plan
 from speech.recognition import Recognizer
 from speech.sources import SimulatedVoice
@@ -60,9 +60,9 @@ def loop(
             "ko",
             speaker.voice,
             recognizer=recognizer,
-            engine="espeak",  # offline and deterministic; gTTS is tested in speech's tests
-            cache_dir=cache,
-            on_question=speaker,
+            # offline and deterministic; gTTS is tested in speech's tests
+            voice=RobotVoice("ko", "espeak", cache),
+            hooks=VoiceHooks(on_question=speaker),
         )
         executor = Executor(plan, FallbackSource(voice, RandomSource(seed)))
         assert executor.run() == "goal", f"seed {seed}"
@@ -142,7 +142,7 @@ def test_a_silent_listener_is_asked_twice_then_falls_back(
     recognizer: Recognizer, plan: Plan, tmp_path: Path
 ) -> None:
     voice = VoiceSource(
-        "ko", SimulatedVoice("ko", seed=1), recognizer, engine="espeak", cache_dir=tmp_path
+        "ko", SimulatedVoice("ko", seed=1), recognizer, RobotVoice("ko", "espeak", tmp_path)
     )
     node_id, node = next((i, n) for i, n in plan.nodes.items() if is_question(n, n.outcomes))
     # Nobody speaks: both listens time out.

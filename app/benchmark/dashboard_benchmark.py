@@ -20,7 +20,7 @@ import time
 from collections.abc import Sequence
 
 from app.dashboard.mesh_detail import DEFAULT_DETAIL
-from app.dashboard.server import Dashboard
+from app.dashboard.server import Dashboard, DashboardSettings
 from planner.plan.model import format_table
 from planner.planning import plan_scenario
 from planner.resources import scenario_path
@@ -70,7 +70,9 @@ def page_drawing(detail: float, frames: int, clicks: int) -> tuple[list[float], 
     from playwright.sync_api import sync_playwright
 
     chromium = shutil.which("chromium") or "/usr/bin/chromium"
-    dashboard = Dashboard("127.0.0.1", _port(), "default.toml", mesh_detail=detail)
+    dashboard = Dashboard(
+        "127.0.0.1", _port(), "default.toml", DashboardSettings(mesh_detail=detail)
+    )
     try:
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])

@@ -45,7 +45,7 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--cluster",
         metavar="auto|ray://HOST:PORT",
-        help="solve branches on Ray actors by default (the page's \"Solve on\" can change it; "
+        help='solve branches on Ray actors by default (the page\'s "Solve on" can change it; '
         "needs tandem[cluster])",
     )
     parser.add_argument(
@@ -92,7 +92,7 @@ def is_loopback(host: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     # Imported here: viser and the robot meshes load only for this command.
-    from app.dashboard.server import Dashboard
+    from app.dashboard.server import Dashboard, DashboardSettings
 
     if not is_loopback(args.host):
         if not args.allow_remote:
@@ -111,12 +111,14 @@ def run(args: argparse.Namespace) -> int:
             args.host,
             args.port,
             args.scenario,
-            workers=args.workers,
-            cluster=args.cluster,
-            data_dir=args.data_dir,
-            scenario_dirs=args.scenario_dir,
-            speak=args.speak,
-            mesh_detail=args.mesh_detail,
+            DashboardSettings(
+                workers=args.workers,
+                cluster=args.cluster,
+                data_dir=args.data_dir,
+                scenario_dirs=args.scenario_dir,
+                speak=args.speak,
+                mesh_detail=args.mesh_detail,
+            ),
         )
     except OSError as err:
         raise BadInput(

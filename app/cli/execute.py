@@ -7,16 +7,17 @@ import secrets
 import signal
 import sys
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
 from app.cli.voice_args import voice_from_args
-from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource
+from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, Result
 from app.execution.repair import Repairer
 from app.execution.retargeting import retargeter_for
-from app.execution.walker import Executor, Narrator
+from app.execution.walker import Executor, Listener, Narrator
 from app.sessions.store import SessionStore
 from app.sources.outcomes import (
     ConsoleSource,
@@ -160,7 +161,18 @@ def _print_event(event: ExecutionEvent) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
-def run(args: argparse.Namespace) -> int:
+@dataclass
+class _Answers:
+    """Who answers this run's branching nodes, and what goes with them."""
+
+    source: OutcomeSource
+    narrator: Narrator | None = None
+    listeners: list[Listener] = field(default_factory=list)
+    close: Callable[[], None] = lambda: None
+
+
+def _check(args: argparse.Namespace) -> tuple[bool, bool]:
+    """The options that go together, checked before planning; (by voice, seeded)."""
     if args.step_delay < 0:
         raise BadInput(f"--step-delay {args.step_delay}: must be 0 or more")
     by_voice = args.responses.startswith("voice:")
@@ -171,38 +183,46 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput("--language, --vosk-model and --speak go with --responses voice:...")
     if args.human != "random" and args.responses != "voice:sim":
         raise BadInput(f"--human {args.human}: only random, except with --responses voice:sim")
+    return by_voice, seeded
+
+
+def _answers(
+    args: argparse.Namespace,
+    plan: Plan,
+    scenario: Scenario | None,
+    seed: int | None,
+    calibration: CameraIntrinsics | None,
+) -> _Answers:
+    if args.responses.startswith("voice:"):
+        voice = voice_from_args(args, plan, seed)
+        return _Answers(voice.source, narrator=voice.robot)
+    if not args.responses.startswith("camera:"):
+        return _Answers(make_source(args.responses, seed, plan))
+    if scenario is None:
+        raise BadInput("--responses camera:... needs the scenario file, not a plan file")
+    # Imported here: the simulated camera loads pybullet, which other runs never need.
+    from app.responses.camera import camera_responses
+    from perception.frames import SourceError
+
+    try:
+        camera = camera_responses(
+            args.responses[len("camera:") :], scenario, plan, seed, calibration
+        )
+    except SourceError as err:
+        raise BadInput(f"--responses {args.responses}: {err}") from err
+    source = FallbackSource(camera.source, RandomSource(seed), on_fallback=_camera_fallback(plan))
+    return _Answers(source, listeners=list(camera.listeners), close=camera.close)
+
+
+def run(args: argparse.Namespace) -> int:
+    by_voice, seeded = _check(args)
     calibration = _calibration(args)  # before planning: a bad file is said at once
     plan, scenario = load_plan(args.input, args.language)
     seed = args.seed
     if seeded and seed is None:
         seed = secrets.randbelow(2**31)
         print(f"seed {seed}", file=sys.stderr)
-    camera = None
-    narrator: Narrator | None = None
-    listeners: list[Callable[[ExecutionEvent], None]] = []
-    if by_voice:
-        voice = voice_from_args(args, plan, seed)
-        source: OutcomeSource = voice.source
-        narrator = voice.robot
-    elif args.responses.startswith("camera:"):
-        if scenario is None:
-            raise BadInput("--responses camera:... needs the scenario file, not a plan file")
-        # Imported here: the simulated camera loads pybullet, which other runs never need.
-        from app.responses.camera import camera_responses
-        from perception.frames import SourceError
-
-        try:
-            camera = camera_responses(
-                args.responses[len("camera:") :], scenario, plan, seed, calibration
-            )
-        except SourceError as err:
-            raise BadInput(f"--responses {args.responses}: {err}") from err
-        listeners = camera.listeners
-        source = FallbackSource(
-            camera.source, RandomSource(seed), on_fallback=_camera_fallback(plan)
-        )
-    else:
-        source = make_source(args.responses, seed, plan)
+    answers = _answers(args, plan, scenario, seed, calibration)
     note = args.note
     if seeded:
         note = f"seed {seed}" + (f"; {note}" if note else "")
@@ -213,27 +233,31 @@ def run(args: argparse.Namespace) -> int:
         repairing = Repairer(scenario, store.add_plan).repair if scenario is not None else None
         executor = Executor(
             plan,
-            source,
-            [store.recorder(session_id), *listeners, _print_event],
-            args.step_delay,
-            narrator=narrator,
+            answers.source,
+            [store.recorder(session_id), *answers.listeners, _print_event],
+            step_delay=args.step_delay,
+            narrator=answers.narrator,
             repairing=repairing,
             # The slot the human used moves later motions: the motion planner re-targets them.
             retarget=retargeter_for(scenario, plan),
         )
-
-        def stop(signum: int, frame: FrameType | None) -> None:
-            raise KeyboardInterrupt
-
-        previous = signal.signal(signal.SIGTERM, stop)
-        try:
-            result = executor.run()
-        except KeyboardInterrupt:
-            result = "interrupted"
-        finally:
-            signal.signal(signal.SIGTERM, previous)
+        result = _run_until_stopped(executor)
         store.finish(session_id, result)
-    if camera is not None:
-        camera.close()
+    answers.close()
     print(f"session {session_id}: {result} after {len(executor.events)} steps")
     return 0 if result == "goal" else 1
+
+
+def _run_until_stopped(executor: Executor) -> Result:
+    """The walk's result; SIGTERM or Ctrl-C make it `interrupted`."""
+
+    def stop(signum: int, frame: FrameType | None) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        return executor.run()
+    except KeyboardInterrupt:
+        return "interrupted"
+    finally:
+        signal.signal(signal.SIGTERM, previous)

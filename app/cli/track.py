@@ -15,11 +15,15 @@ import statistics
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from app.cli.exit_codes import BadInput
 from planner.resources import find_scenario
 from planner.scenario.loading import load_scenario
+
+if TYPE_CHECKING:  # OpenCV is loaded only when the command runs
+    from perception.frames import Frame
+    from perception.world import WorldEstimate
 
 
 def register(parser: argparse.ArgumentParser) -> None:
@@ -61,7 +65,6 @@ def run(args: argparse.Namespace) -> int:
     from app.responses.camera import open_camera
     from app.sources.bench_layout import bench_layout
     from app.sources.camera_input import CalibrationFileError, load_calibration
-    from app.sources.camera_reading import where_words
     from perception.frames import SourceError
     from perception.pipeline import BenchPerception
 
@@ -89,26 +92,13 @@ def run(args: argparse.Namespace) -> int:
             perceived = perception.process(frame)
             times.append(time.perf_counter() - start)
             codes = len(perceived.observation.detections)
-            for part_id, estimate in perceived.world.parts.items():
-                if shown.get(part_id) == estimate.placement:
-                    continue
-                shown[part_id] = estimate.placement
-                if args.json:
-                    doc = placement_json(part_id, estimate, frame.index, frame.timestamp)
-                    print(json.dumps(doc), flush=True)
-                else:
-                    print(
-                        f"frame {frame.index:5d} {frame.timestamp:7.2f} s  {part_id:>8} "
-                        f"{where_words(estimate.placement)} ({estimate.confidence:.2f})",
-                        flush=True,
-                    )
+            _print_moves(perceived.world, frame, shown, as_json=args.json)
     except KeyboardInterrupt:
         pass  # a live camera runs until stopped
     finally:
         camera.close()
     if not times:
         raise BadInput(f"{args.source}: no frames")
-    median = statistics.median(times)
     pose = perception.observer.camera
     # Where the reference codes put the camera: a check of its placement and intrinsics.
     where = (
@@ -116,9 +106,30 @@ def run(args: argparse.Namespace) -> int:
         if pose is None
         else ("at x {:.3f} y {:.3f} z {:.3f} m".format(*pose.position))
     )
+    median = statistics.median(times)
     print(
         f"{len(times)} frames, {codes} codes in the last, {median * 1e3:.1f} ms a frame "
         f"(median, {1 / median:.0f} fps); camera {where}; intrinsics: {camera.origin}",
         file=sys.stderr,
     )
     return 0
+
+
+def _print_moves(
+    world: WorldEstimate, frame: Frame, shown: dict[str, object], *, as_json: bool
+) -> None:
+    """A line for each part whose placement changed since it was last shown."""
+    from app.sources.camera_reading import where_words
+
+    for part_id, estimate in world.parts.items():
+        if shown.get(part_id) == estimate.placement:
+            continue
+        shown[part_id] = estimate.placement
+        if as_json:
+            print(json.dumps(placement_json(part_id, estimate, frame.index, frame.timestamp)))
+        else:
+            print(
+                f"frame {frame.index:5d} {frame.timestamp:7.2f} s  {part_id:>8} "
+                f"{where_words(estimate.placement)} ({estimate.confidence:.2f})"
+            )
+        sys.stdout.flush()

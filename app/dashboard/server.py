@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import errno
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import viser
@@ -50,24 +51,38 @@ def _serve(host: str, port: int) -> viser.ViserServer:
     return server
 
 
+@dataclass(frozen=True)
+class DashboardSettings:
+    """How a dashboard plans, where it keeps its data, and what it draws and plays.
+
+    `workers` and `cluster` are the planner's (0: this machine's default; a Ray
+    address), `cache_dir` the feasibility checks' cache, `data_dir` the session
+    store and the user's scenarios, `scenario_dirs` more folders to offer,
+    `load_models` whether to draw the robot's meshes (tests skip them), and
+    `speak` where the robot's voice plays.
+    """
+
+    workers: int = 0
+    cluster: str | None = None
+    cache_dir: str | None = None
+    data_dir: str | None = None
+    scenario_dirs: Sequence[str | Path] = ()
+    load_models: bool = True
+    mesh_detail: float = DEFAULT_DETAIL
+    speak: Speak = "page"
+
+
 class Dashboard:
     def __init__(
         self,
         host: str = "127.0.0.1",
         port: int = 8080,
         scenario_path: str = "default.toml",
-        *,
-        workers: int = 0,
-        cluster: str | None = None,
-        cache_dir: str | None = None,
-        data_dir: str | None = None,
-        scenario_dirs: Sequence[str | Path] = (),
-        load_models: bool = True,
-        mesh_detail: float = DEFAULT_DETAIL,
-        speak: Speak = "page",
+        settings: DashboardSettings | None = None,
     ) -> None:
-        data = Path(data_dir) if data_dir is not None else default_data_dir()
-        self.folders = ScenarioFolders(data / USER_FOLDER, [Path(p) for p in scenario_dirs])
+        s = settings if settings is not None else DashboardSettings()
+        data = Path(s.data_dir) if s.data_dir is not None else default_data_dir()
+        self.folders = ScenarioFolders(data / USER_FOLDER, [Path(p) for p in s.scenario_dirs])
         self.server = server = _serve(host, port)
         self.events = events = Events()
         self.operator = Operator()
@@ -77,7 +92,9 @@ class Dashboard:
         # order, so it can be used while the robot's meshes (~5 MB) still arrive.
         gui.add_markdown("**Tandem**: plans for a robot and a human building a table")
         self.scenario_panel = ScenarioPanel(gui, screen, events, self.folders, server.atomic)
-        self.plan_panel = PlanPanel(gui, screen, events, PlanSettings(workers, cache_dir, cluster))
+        self.plan_panel = PlanPanel(
+            gui, screen, events, PlanSettings(s.workers, s.cache_dir, s.cluster)
+        )
         self.node_panel = NodePanel(gui, screen, events)
         self.view_panel = ViewPanel(gui, screen, events, lambda: server.get_clients().values())
         try:
@@ -85,7 +102,7 @@ class Dashboard:
         except StoreError:
             server.stop()
             raise
-        self.speech = SpeechPanel(gui, screen, events, speak)
+        self.speech = SpeechPanel(gui, screen, events, s.speak)
         self.execution = ExecutionPanel(
             gui, screen, events, self.store, self.operator, self.speech.responses
         )
@@ -95,8 +112,8 @@ class Dashboard:
         self.camera_panel = CameraPanel(
             gui, screen, events, self.operator, data / RECORDINGS_FOLDER
         )
-        if load_models:
-            screen.bench.load_models(mesh_detail)
+        if s.load_models:
+            screen.bench.load_models(s.mesh_detail)
         server.on_client_connect(self.view_panel.greet)
         self.open_scenario(scenario_path)
 

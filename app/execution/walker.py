@@ -60,6 +60,10 @@ def _event_kind(node: PlanNode) -> EventKind:
     return node.kind
 
 
+# A walk longer than this is a loop no plan should have: it ends as a dead end.
+MAX_STEPS = 10_000
+
+
 class _Aborted(Exception):
     pass
 
@@ -85,8 +89,8 @@ class Executor:
         plan: Plan,
         source: OutcomeSource,
         listeners: Iterable[Listener] = (),
+        *,
         step_delay: float = 0.0,
-        max_steps: int = 10_000,
         narrator: Narrator | None = None,
         repairing: Repairing | None = None,
         retarget: Retarget | None = None,
@@ -99,7 +103,6 @@ class Executor:
         self.source = source
         self.listeners = list(listeners)
         self.step_delay = step_delay
-        self.max_steps = max_steps
         self.result: Result | None = None
         self.error: BaseException | None = None
         self.current: str | None = None  # the node being run
@@ -205,7 +208,7 @@ class Executor:
     def _walk(self) -> Result:
         node_id = self.plan.root
         try:
-            for _ in range(self.max_steps):
+            for _ in range(MAX_STEPS):
                 self._gate()
                 node = self.nodes.get(node_id)
                 if node is None:

@@ -27,6 +27,7 @@ from app.sources.outcomes import ScriptedSource
 from app.sources.voice import (
     AttemptListener,
     ListeningListener,
+    VoiceHooks,
     VoiceSource,
     is_question,
 )
@@ -151,14 +152,11 @@ def voice_responses(
     else:
         audio = WavFolderSource(spec)
     robot = RobotVoice(lang, engine, cache_dir, [on_line] if on_line else [], questions=False)
-    voice = VoiceSource(
-        lang,
-        audio,
-        hearing,
-        voice=robot,
+    hooks = VoiceHooks(
         on_question=speaker,
         truth=speaker.truth if speaker is not None else None,
         on_attempt=on_attempt,
         on_listening=on_listening,
     )
+    voice = VoiceSource(lang, audio, hearing, robot, hooks=hooks)
     return VoiceResponses(VoiceAnswers(voice, fallback, on_fallback), voice, robot, speaker)

@@ -30,6 +30,7 @@ from sqlite_utils.db import Table
 from app.execution.events import INTERRUPTED, ExecutionEvent, Result
 from app.execution.evidence import Evidence
 from app.sessions.database import StoreError, open_database, unusable
+from app.sessions.export import EXPORT_FORMAT, export_event
 from app.sessions.processes import boot_id, owner_alive
 from planner.plan.model import Plan
 from planner.vocabulary import parse_action
@@ -40,9 +41,6 @@ from planner.vocabulary import parse_action
 _KNOWN_PLANS = 8
 
 DB_NAME = "sessions.db"
-# /2: events' evidence is the versioned JSON of app.execution.evidence (with "jpeg":
-# whether a picture is stored); /1 had the flat mapping under "detail".
-EXPORT_FORMAT = "tandem-session/2"
 
 
 class UnknownSession(KeyError):
@@ -408,43 +406,6 @@ class SessionStore:
             "events": events,
             "plan": self.plan_doc(record.plan_hash),
         }
-
-
-def export_event(event: ExecutionEvent) -> dict[str, Any]:
-    """An event as the export writes it: its fields, the action as text, the evidence in
-    its versioned JSON form with whether a picture is stored."""
-    evidence = event.evidence
-    return {
-        "seq": event.seq,
-        "time": event.time,
-        "node": event.node,
-        "action": None if event.action is None else str(event.action),
-        "kind": event.kind,
-        "outcome": event.outcome,
-        "source": event.source,
-        "confidence": event.confidence,
-        "text": event.text,
-        "evidence": (
-            None if evidence is None else {**evidence.to_json(), "jpeg": evidence.jpeg is not None}
-        ),
-    }
-
-
-def exported_event(row: Mapping[str, Any]) -> ExecutionEvent:
-    """The event of an exported row (its evidence without the picture)."""
-    evidence = row.get("evidence")
-    return ExecutionEvent(
-        seq=row["seq"],
-        time=row["time"],
-        node=row["node"],
-        action=None if row["action"] is None else parse_action(row["action"]),
-        kind=row["kind"],
-        outcome=row["outcome"],
-        source=row["source"],
-        confidence=row["confidence"],
-        text=row["text"],
-        evidence=None if evidence is None else Evidence.from_json(evidence),
-    )
 
 
 def _table(db: Database, name: str) -> Table:

@@ -26,7 +26,6 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 from app.execution.events import AnswerSource, Outcome
 from app.execution.evidence import Evidence, HeardAttempt, Truth, VoiceHearing
@@ -36,7 +35,6 @@ from planner.vocabulary import QUESTIONS
 from speech.languages import Language, language
 from speech.recognition import Heard, Recognizer
 from speech.sources import AudioSource, MicrophoneSource
-from speech.synthesis import Engine
 
 ANSWERS = ("yes", "no")
 
@@ -62,7 +60,7 @@ def is_question(node: PlanNode, options: Sequence[str]) -> bool:
 
 
 @dataclass(frozen=True)
-class Spoken:
+class Asked:
     """One sentence the robot said, and the engine that said it."""
 
     node_id: str
@@ -91,15 +89,24 @@ class Attempt:
         return " ".join(self.words)
 
 
+@dataclass(frozen=True)
+class VoiceHooks:
+    """Who is told what while the voice asks and listens (each optional)."""
+
+    on_question: QuestionListener | None = None  # the robot has asked: a simulated human speaks
+    truth: TruthOf | None = None  # what was really said, for the evidence
+    on_attempt: AttemptListener | None = None  # each try as it is heard
+    on_listening: ListeningListener | None = None  # listening starts and ends
+
+
 class VoiceSource:
     """Yes/no answers heard through `audio` and a closed grammar for the language.
 
     `recognizer` may be shared (the model is costly to load); without one a
-    `Recognizer` for `language_code` is made. `engine` is the speech engine
-    ("auto": gTTS when its service answers, else espeak-ng); `voice`, when
-    given, is the `RobotVoice` that speaks (shared with the narrator, so every
-    line reaches the same listeners). `tries` is how many times a question is
-    asked before giving up to the fallback.
+    `Recognizer` for `language_code` is made. `voice` is the `RobotVoice` that
+    speaks (shared with the narrator, so every line reaches the same listeners;
+    without one, the language's default engines). `tries` is how many times a
+    question is asked before giving up to the fallback; `hooks` who is told what.
     """
 
     name: AnswerSource = "voice"
@@ -109,15 +116,11 @@ class VoiceSource:
         language_code: str | Language,
         audio: AudioSource,
         recognizer: Recognizer | None = None,
-        engine: Engine = "auto",
-        cache_dir: Path | None = None,
+        voice: RobotVoice | None = None,
+        *,
         listen_timeout_s: float = 5.0,
         tries: int = 2,
-        on_question: QuestionListener | None = None,
-        voice: RobotVoice | None = None,
-        truth: TruthOf | None = None,
-        on_attempt: AttemptListener | None = None,
-        on_listening: ListeningListener | None = None,
+        hooks: VoiceHooks = VoiceHooks(),
     ) -> None:
         self.language = (
             language_code if isinstance(language_code, Language) else language(language_code)
@@ -129,23 +132,23 @@ class VoiceSource:
                 f"the questions are asked in {self.language.code}"
             )
         self.audio = audio
-        self.voice = voice if voice is not None else RobotVoice(self.language, engine, cache_dir)
+        self.voice = voice if voice is not None else RobotVoice(self.language)
         self.listen_timeout_s = listen_timeout_s
         self.tries = tries
-        self.on_question = on_question
-        self.truth = truth
-        self.on_attempt = on_attempt
-        self.on_listening = on_listening
-        self.spoken: list[Spoken] = []
+        self.on_question = hooks.on_question
+        self.truth = hooks.truth
+        self.on_attempt = hooks.on_attempt
+        self.on_listening = hooks.on_listening
+        self.spoken: list[Asked] = []
         self.attempts: dict[str, list[Attempt]] = {}
         self.last_heard: Attempt | None = None
         self._interrupted = threading.Event()
 
     # -- speaking -------------------------------------------------------------
 
-    def speak(self, node_id: str, text: str) -> Spoken:
+    def speak(self, node_id: str, text: str) -> Asked:
         """Says `text` and records which engine said it ("none" if none could)."""
-        line = Spoken(node_id, text, self.voice.say(node_id, text).engine)
+        line = Asked(node_id, text, self.voice.say(node_id, text).engine)
         self.spoken.append(line)
         return line
 

@@ -1,0 +1,56 @@
+"""A session as the export writes it (`tandem sessions export`, the review's download).
+
+`tandem-session/2`: the session's record, its events (the action as text, the
+evidence in its versioned JSON form with whether a picture is stored) and its
+plan. `exported_event` reads an event back.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from app.execution.events import ExecutionEvent
+from app.execution.evidence import Evidence
+from planner.vocabulary import parse_action
+
+# /2: events' evidence is the versioned JSON of app.execution.evidence (with "jpeg":
+# whether a picture is stored); /1 had the flat mapping under "detail".
+EXPORT_FORMAT = "tandem-session/2"
+
+
+def export_event(event: ExecutionEvent) -> dict[str, Any]:
+    """An event as the export writes it: its fields, the action as text, the evidence in
+    its versioned JSON form with whether a picture is stored."""
+    evidence = event.evidence
+    return {
+        "seq": event.seq,
+        "time": event.time,
+        "node": event.node,
+        "action": None if event.action is None else str(event.action),
+        "kind": event.kind,
+        "outcome": event.outcome,
+        "source": event.source,
+        "confidence": event.confidence,
+        "text": event.text,
+        "evidence": (
+            None if evidence is None else {**evidence.to_json(), "jpeg": evidence.jpeg is not None}
+        ),
+    }
+
+
+def exported_event(row: Mapping[str, Any]) -> ExecutionEvent:
+    """The event of an exported row (its evidence without the picture)."""
+    evidence = row.get("evidence")
+    return ExecutionEvent(
+        seq=row["seq"],
+        time=row["time"],
+        node=row["node"],
+        action=None if row["action"] is None else parse_action(row["action"]),
+        kind=row["kind"],
+        outcome=row["outcome"],
+        source=row["source"],
+        confidence=row["confidence"],
+        text=row["text"],
+        evidence=None if evidence is None else Evidence.from_json(evidence),
+    )
