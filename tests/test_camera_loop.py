@@ -220,7 +220,8 @@ def test_tandem_execute_with_the_simulated_camera(tmp_path: Path) -> None:
         image = cv2.imdecode(np.frombuffer(e.evidence.jpeg, np.uint8), cv2.IMREAD_COLOR)
         assert image is not None and image.shape[1] == 320
         camera = e.evidence.camera
-        assert camera["label"] == e.outcome and camera["frames"] >= 1 and camera["reason"]
+        assert camera is not None and camera.decided == "label" and camera.value == e.outcome
+        assert camera.frames >= 1 and camera.reason
         assert e.evidence.truth is not None and e.evidence.truth.label == e.outcome, e
     assert all(e.evidence is None for e in events if e.source != "camera")
     shown = tandem("sessions", "show", str(session.id), env=env)

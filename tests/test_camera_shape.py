@@ -92,7 +92,7 @@ def test_the_camera_reads_every_look_at_a_shape_as_the_world_is(
             camera = e.evidence.camera
             assert camera is not None and camera.value == truth
             assert e.evidence.truth is not None and e.evidence.truth.label == truth
-            assert camera["outlines"][action.part].startswith(truth)
+            assert camera.outlines[action.part].startswith(truth)
             seen[(action.part, truth)] += 1
     print(f"\n{len(SEEDS)} seeds, shapes the camera read: {dict(seen)}, hidden: {hidden}")
     # Hidden faces are the exception (2 of 16 looks here): the camera reads at least

@@ -25,7 +25,7 @@ from app.responses.camera import LiveAnswers  # noqa: E402
 from app.sim.human import SimulatedHuman, SimulatedWorld  # noqa: E402
 from perception.annotate import PART_COLOUR, REFERENCE_COLOUR  # noqa: E402
 from planner.plan.model import Plan  # noqa: E402
-from planner.vocabulary import SenseHumanAttachingWhere, parse_action  # noqa: E402
+from planner.vocabulary import SenseHumanAttachingWhere  # noqa: E402
 from tests.camera_runs import PutsItDownInstead  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     ARTIFACTS,
@@ -198,7 +198,7 @@ def test_a_surprise_the_live_camera_sees_is_repaired(page: Page, dashboard: Dash
     events = dashboard.store.events(session_id, with_jpeg=True)
     (repair,) = [e for e in events if e.kind == REPAIR]
     assert repair.node == put_down.surprised_at and repair.source == "camera"
-    asked = parse_action(repair.action or "")
+    asked = repair.action
     assert isinstance(asked, SenseHumanAttachingWhere)
     assert repair.evidence is not None
     assert repair.evidence.replanned is not None
