@@ -19,10 +19,8 @@ from planner.vocabulary import parse_action
 EXPORT_FORMAT = "tandem-session/2"
 
 
-def export_event(event: ExecutionEvent) -> dict[str, Any]:
-    """An event as the export writes it: its fields, the action as text, the evidence in
-    its versioned JSON form with whether a picture is stored."""
-    evidence = event.evidence
+def event_row(event: ExecutionEvent) -> dict[str, Any]:
+    """An event's own fields as stored and exported: the action as its text."""
     return {
         "seq": event.seq,
         "time": event.time,
@@ -33,6 +31,15 @@ def export_event(event: ExecutionEvent) -> dict[str, Any]:
         "source": event.source,
         "confidence": event.confidence,
         "text": event.text,
+    }
+
+
+def export_event(event: ExecutionEvent) -> dict[str, Any]:
+    """An event as the export writes it: its row, and the evidence in its versioned JSON
+    form with whether a picture is stored."""
+    evidence = event.evidence
+    return {
+        **event_row(event),
         "evidence": (
             None if evidence is None else {**evidence.to_json(), "jpeg": evidence.jpeg is not None}
         ),

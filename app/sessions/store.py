@@ -30,7 +30,7 @@ from sqlite_utils.db import Table
 from app.execution.events import INTERRUPTED, ExecutionEvent, Result
 from app.execution.evidence import Evidence
 from app.sessions.database import StoreError, open_database, unusable
-from app.sessions.export import EXPORT_FORMAT, export_event
+from app.sessions.export import EXPORT_FORMAT, event_row, export_event
 from app.sessions.processes import boot_id, owner_alive
 from planner.plan.model import Plan
 from planner.vocabulary import parse_action
@@ -238,18 +238,7 @@ class SessionStore:
 
     def record(self, session_id: int, event: ExecutionEvent) -> None:
         """Stores one event; committed before this returns."""
-        row = {
-            "session_id": session_id,
-            "seq": event.seq,
-            "time": event.time,
-            "node": event.node,
-            "action": None if event.action is None else str(event.action),
-            "kind": event.kind,
-            "outcome": event.outcome,
-            "source": event.source,
-            "confidence": event.confidence,
-            "text": event.text,
-        }
+        row = {"session_id": session_id, **event_row(event)}
         evidence = event.evidence
         with self._writing(), self.db.conn:
             # One transaction: an answer is never stored without what decided it.

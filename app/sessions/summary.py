@@ -34,6 +34,9 @@ def summary(event: ExecutionEvent) -> str | None:
             f"heard '{voice.heard or '-'}' (confidence {voice.confidence}, {tries}), "
             f"answered by {voice.answered_by}"
         )
+    clicked = evidence.clicked
+    if clicked is not None:
+        parts.append(f"clicked after {clicked.waited_s} s among {len(clicked.offered)} choices")
     truth = evidence.truth
     if truth is not None and truth.said:
         parts.append(f"the simulated human said '{' / '.join(truth.said)}' ({truth.label})")
