@@ -64,6 +64,8 @@ class SpeechPanel:
         self.speak = speak
         self.voice: VoiceResponses | None = None
         self.lines: list[Line] = []
+        # None: a new simulated voice per execution; a number repeats one (tests).
+        self.seed: int | None = None
         self._recognizers: dict[str, Recognizer] = {}
         self._loading = threading.Lock()  # apart from _lock: a load takes seconds
         self._level_at = 0.0
@@ -112,7 +114,7 @@ class SpeechPanel:
                     "sim" if mode == "simulated voice" else "mic",
                     code,
                     clicks,
-                    seed=random.randrange(2**31),
+                    seed=random.randrange(2**31) if self.seed is None else self.seed,
                     recognizer=self._recognizer(code),
                     engine=self._engine,
                     on_line=self._spoken,
