@@ -127,26 +127,29 @@ def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Das
     wait_for(plan_shown(dashboard))
     assert dashboard.tree.current is not None and len(dashboard.tree.current.positions) >= 10
     assert dashboard.plan is not None and dashboard.selected == dashboard.plan.root
-    page.get_by_text("statistic").wait_for()
+    page.get_by_text("meaning").wait_for()  # the statistics, with their legend
+    page.locator(f'svg.tandem-tree [data-node="{dashboard.plan.root}"]').wait_for()
     time.sleep(2.0)
     shot(page, "plan-tree")
-    # Go to the root's child with the panel, aim the camera at it, back to the root...
+    # Go to the root's child with the Selected node tab, back to the root...
     root = dashboard.plan.root
     child = dashboard.plan.nodes[root].children[0].node
+    page.get_by_role("tab", name="Selected node").click()
     page.get_by_role("button", name="next", exact=True).click()
     wait_for(lambda: dashboard.selected == child)
-    page.get_by_role("button", name="Selected", exact=True).click()
     page.get_by_role("button", name="Parent", exact=True).click()
     wait_for(lambda: dashboard.selected == root)
-    time.sleep(2.0)
-    # ...then click the node in the 3D tree, in the middle of the view.
-    canvas = page.locator("canvas").first.bounding_box()
-    assert canvas is not None
-    page.mouse.click(canvas["x"] + canvas["width"] / 2, canvas["y"] + canvas["height"] / 2)
+    page.get_by_role("tab", name="Plan tree").click()
+    # ...then click the child's box in the tree picture: the selection follows.
+    page.locator(f'svg.tandem-tree [data-node="{child}"] rect').last.click()
     wait_for(lambda: dashboard.selected == child, 20)
+    selected = page.locator(f'svg.tandem-tree [data-node="{child}"] rect[stroke="#d0209c"]')
+    selected.wait_for()  # the picture marks it selected
     action = str(dashboard.plan.nodes[child].action)
-    page.get_by_text(action, exact=True).first.wait_for()
+    page.get_by_role("tab", name="Selected node").click()
+    page.locator("strong").get_by_text(action, exact=True).first.wait_for()
     shot(page, "node-selected")
+    page.get_by_role("tab", name="Plan tree").click()
     page.get_by_role("button", name="Bench", exact=True).click()
     time.sleep(2.0)
     shot(page, "bench-at-node")

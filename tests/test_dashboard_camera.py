@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("playwright.sync_api")
-from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
+from playwright.sync_api import Browser, Page, expect, sync_playwright  # noqa: E402
 
 from app.dashboard.camera_panel import VIEW_WIDTH  # noqa: E402
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
@@ -82,9 +82,19 @@ def colour_pixels(image: np.ndarray, bgr: tuple[int, int, int]) -> int:
     return int(np.all(np.abs(image.astype(int) - np.array(bgr)) <= 30, axis=2).sum())
 
 
+def stop_camera(page: Page, dashboard: Dashboard) -> None:
+    """Start is off while a camera runs; Stop leaves no stale frame."""
+    panel = dashboard.camera_panel
+    if panel.live is None:
+        return
+    expect(page.get_by_role("button", name="Start camera", exact=True)).to_be_disabled()
+    page.get_by_role("button", name="Stop camera", exact=True).click()
+    wait_for(lambda: panel.live is None and not panel.view.visible)
+    expect(page.get_by_role("button", name="Start camera", exact=True)).to_be_enabled()
+
+
 def test_the_panel_shows_the_annotated_frame(page: Page, dashboard: Dashboard) -> None:
-    page.get_by_text("Live camera", exact=True).click()
-    page.get_by_role("button", name="Start camera", exact=True).click()
+    page.get_by_role("button", name="Start camera", exact=True).click()  # its own panel
     page.get_by_text("it answers the sensing nodes", exact=False).wait_for()
     panel = dashboard.camera_panel
     wait_for(lambda: panel.last_annotated is not None, 30)
@@ -151,7 +161,7 @@ def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> No
         assert e.evidence.camera is not None and e.evidence.camera.seconds < 2.0
     questions = [e for e in events if e.kind == "communication" and e.outcome]
     assert all(e.source == "click" for e in questions)
-    page.get_by_text("answered by the camera", exact=False).first.wait_for()
+    page.get_by_text("(by the camera,", exact=False).first.wait_for()
     # The review shows the deciding frame beside a camera answer.
     page.get_by_text("Review sessions").click()
     page.get_by_role("button", name="Refresh list", exact=True).click()
@@ -180,6 +190,7 @@ def test_a_surprise_the_live_camera_sees_is_repaired(page: Page, dashboard: Dash
     panel.simulated_human = human
     try:
         panel.kind.value = "simulated"
+        stop_camera(page, dashboard)
         page.get_by_role("button", name="Start camera", exact=True).click()
         wait_for(lambda: isinstance(dashboard.execution.camera, LiveAnswers)
                  and dashboard.execution.camera.human is human, 30)  # fmt: skip
@@ -213,6 +224,7 @@ def test_a_missing_camera_is_one_line_and_clicks_answer(page: Page, dashboard: D
     panel = dashboard.camera_panel
     panel.kind.value = "webcam"
     panel.where.value = "63"
+    stop_camera(page, dashboard)
     page.get_by_role("button", name="Start camera", exact=True).click()
     page.get_by_text("Camera missing: no camera at 63; clicks answer.").wait_for()
     assert panel.live is None and dashboard.execution.camera is None

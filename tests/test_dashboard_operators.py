@@ -101,7 +101,7 @@ def test_one_operator_many_observers_then_sigterm(browser: Browser, running: Run
     # saying what it could not do; the notices then close by themselves.
     for name, what in (
         (question, "answer"),
-        ("Pause / resume", "pause or resume"),
+        ("Pause", "pause or resume"),
         ("Abort", "abort"),
     ):
         observer.get_by_role("button", name=name, exact=True).click()

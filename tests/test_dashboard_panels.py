@@ -4,12 +4,13 @@ Selected node panel's buttons, and where the View panel puts the camera."""
 
 from __future__ import annotations
 
+import html
 from pathlib import Path
 
 import pytest
 
 from app.dashboard import scenario_edit
-from app.dashboard.node_details import stats_html
+from app.dashboard.node_details import STAT_WORDS, stats_html
 from app.dashboard.node_panel import node_view
 from app.dashboard.plan_panel import (
     HERE,
@@ -24,9 +25,8 @@ from app.dashboard.plan_panel import (
 from app.dashboard.planning_job import JobStatus
 from app.dashboard.scenario_folders import ScenarioFolders
 from app.dashboard.scenario_panel import OTHER_FILE, Edits, OpenScenario, offer
-from app.dashboard.stage import Events, NodeSelected, PlanChanged, Planned, TreeFrame
+from app.dashboard.stage import Events, NodeSelected, PlanChanged, Planned
 from app.dashboard.tree_layout import SpanningTree
-from app.dashboard.view_panel import CAMERAS, SELECTED, TREE, camera_pose
 from planner.plan.model import STAT_KEYS, Plan
 from planner.resources import scenario_dir
 from tests.plan_fixtures import default_plan
@@ -173,15 +173,18 @@ def test_the_growing_tree_is_redrawn_at_most_twice_a_second() -> None:
     assert not live.due(10.7)
 
 
-def test_the_statistics_table_has_every_column_of_the_plan() -> None:
+def test_the_statistics_table_has_every_column_of_the_plan_and_its_meaning() -> None:
     plan = default_plan()
     table = stats_html(plan)
     assert plan.stats is not None
+    cell = "<td style='text-align:right;padding:0 6px'>"
     for key in STAT_KEYS:
-        assert f"<td>{key}</td><td style='text-align:right'>{plan.stats[key]}</td>" in table
+        words = html.escape(STAT_WORDS[key])
+        assert f"<td><b>{key}</b></td>{cell}{plan.stats[key]}</td>" in table
+        assert f"<td style='color:#555'>{words}</td>" in table and len(words) > 10
     partial = Plan.from_json({**plan.to_json(), "stats": None})
     assert partial.partial
-    assert "<td>N</td><td style='text-align:right'></td>" in stats_html(partial)
+    assert f"<td><b>N</b></td>{cell}</td>" in stats_html(partial)
 
 
 # -- the Selected node panel ----------------------------------------------------
@@ -208,20 +211,6 @@ def test_a_nodes_buttons_go_to_its_children_and_its_parent() -> None:
     leaf_id = next(n for n, node in plan.nodes.items() if not node.children)
     leaf = node_view(selected(leaf_id))
     assert not leaf.foldable and leaf.children == {} and leaf.parent is not None
-
-
-# -- the View panel -------------------------------------------------------------
-
-
-def test_camera_presets_frame_the_bench_the_tree_and_the_selection() -> None:
-    assert camera_pose("Bench", None) == CAMERAS["Bench"]
-    assert camera_pose(TREE, None) is None  # no tree drawn yet
-    small = TreeFrame(8.0, (0.5, 1.5), (1.0, 0.5), selected=(8.0, 0.25, 1.75))
-    assert camera_pose(TREE, small) == ((6.0, 0.5, 1.5), (8.0, 0.5, 1.5))  # 2 m at least
-    wide = TreeFrame(8.0, (0.0, 1.0), (10.0, 2.0), selected=None)
-    assert camera_pose(TREE, wide) == ((-1.0, 0.0, 1.0), (8.0, 0.0, 1.0))  # 0.9 x width
-    assert camera_pose(SELECTED, small) == ((6.8, 0.25, 1.75), (8.0, 0.25, 1.75))
-    assert camera_pose(SELECTED, wide) == camera_pose(TREE, wide)  # nothing drawn selected
 
 
 # -- the bus between them -------------------------------------------------------

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +35,7 @@ from perception.annotate import annotate
 from perception.frames import SourceError
 
 SOURCES = ("simulated", "webcam", "video file", "image folder")
-VIEW_WIDTH = 480  # px sent to the page: enough to read the labels, ~30 kB a frame
+VIEW_WIDTH = 640  # px sent to the page: the frame's own width, so its labels read
 SHOW_EVERY_S = 0.2  # the page's view refreshes five times a second at most
 
 
@@ -61,6 +62,7 @@ class CameraPanel:
         events: Events,
         operator: Operator,
         recordings: Path,
+        on_enlarge: Callable[[bool], None] = lambda _: None,
     ) -> None:
         self.recordings = recordings
         self.stage = stage
@@ -70,26 +72,27 @@ class CameraPanel:
         self.last_annotated: np.ndarray | None = None
         self._shown_at = 0.0
         self._lock = threading.Lock()
-        with gui.add_folder("Live camera", expand_by_default=False):
-            self.kind: Any = gui.add_dropdown("Source", SOURCES, initial_value="simulated")
-            self.where: Any = gui.add_text("Webcam index, or name in recordings", "0")
-            # Start again to switch sources: it stops the running one first.
-            # During an execution only its operator may change what answers it.
-            self.start_button = gui.add_button("Start camera")
-            self.start_button.on_click(operator.only("start the camera", lambda _: self.start()))
-            self.stop_button = gui.add_button("Stop camera", disabled=True)
-            self.stop_button.on_click(
-                operator.only(
-                    "stop the camera", lambda _: self.stop("Camera stopped: clicks answer.")
-                )
+        self.kind: Any = gui.add_dropdown("Source", SOURCES, initial_value="simulated")
+        self.where: Any = gui.add_text("Webcam index, or name in recordings", "0")
+        # Stop, then start again, to switch sources.
+        # During an execution only its operator may change what answers it.
+        self.start_button = gui.add_button("Start camera")
+        self.start_button.on_click(operator.only("start the camera", lambda _: self.start()))
+        self.stop_button = gui.add_button("Stop camera", disabled=True)
+        self.stop_button.on_click(
+            operator.only(
+                "stop the camera", lambda _: self.stop("Camera stopped: clicks answer.")
             )
-            self.status = gui.add_markdown("No camera: clicks answer.")
-            self.view = gui.add_image(
-                np.zeros((VIEW_WIDTH * 3 // 4, VIEW_WIDTH, 3), np.uint8), format="jpeg",
-                jpeg_quality=80, visible=False,
-            )  # fmt: skip
-            self.rate = gui.add_markdown("")
-            self.beliefs = gui.add_markdown("")
+        )
+        self.status = gui.add_markdown("No camera: clicks answer.")
+        self.view = gui.add_image(
+            np.zeros((VIEW_WIDTH * 3 // 4, VIEW_WIDTH, 3), np.uint8), format="jpeg",
+            jpeg_quality=80, visible=False,
+        )  # fmt: skip
+        self.rate = gui.add_markdown("")
+        self.beliefs = gui.add_markdown("")
+        self.enlarge: Any = gui.add_checkbox("Enlarge (float at the frame's size)", False)
+        self.enlarge.on_update(lambda _: on_enlarge(bool(self.enlarge.value)))
         events.subscribe(ScenarioChanged, self._scenario_changed)
 
     def _scenario_changed(self, _: ScenarioChanged) -> None:
@@ -125,7 +128,8 @@ class CameraPanel:
             self.live = live
         live.start()
         self.stop_button.disabled = False
-        self.view.visible = True
+        self.start_button.disabled = True
+        self.rate.content = "**Waiting for the camera…** (first frame)"
         self.status.content = (
             f"Camera **{spec}** ({camera.origin} intrinsics): it answers the sensing nodes."
         )
@@ -138,6 +142,11 @@ class CameraPanel:
             return
         live.stop()
         self.stop_button.disabled = True
+        self.start_button.disabled = False
+        # No stale picture: a stopped camera shows nothing.
+        self.view.visible = False
+        self.rate.content = self.beliefs.content = ""
+        self.last_annotated = None
         if why is not None:
             self.status.content = why
         self.events.publish(CameraChanged(None))
@@ -163,6 +172,8 @@ class CameraPanel:
         small = cv2.resize(annotated, (VIEW_WIDTH, round(h * VIEW_WIDTH / w)),
                            interpolation=cv2.INTER_AREA)  # fmt: skip
         self.view.image = cv2.cvtColor(small, cv2.COLOR_BGR2RGB)
+        if not self.view.visible:
+            self.view.visible = True
         located = (
             "located"
             if observation.camera_fresh

@@ -17,6 +17,7 @@ from typing import Any
 
 import viser
 
+from app.dashboard.log_lines import sentence
 from app.dashboard.operator import Operator, refuse
 from app.dashboard.stage import (
     CameraAnswers,
@@ -27,6 +28,7 @@ from app.dashboard.stage import (
     PlanChanged,
     Stage,
 )
+from app.dashboard.tree_svg import Step, strip_svg
 from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource
 from app.execution.repair import Repairer
 from app.execution.retargeting import retargeter_for
@@ -42,7 +44,8 @@ from planner.vocabulary import SenseLengthOf, SenseShapeOf
 Responses = Callable[[Plan, ClickSource], tuple[OutcomeSource, Narrator | None]]
 
 FRAMES_PER_MOTION = 20  # arm poses shown per motion (the path is subsampled)
-LOG_LINES = 12
+LOG_LINES = 12  # the page keeps these; the session store keeps every event
+IDLE = "**Ready.** Plan, then press **Execute plan**."
 
 
 class ExecutionPanel:
@@ -68,28 +71,31 @@ class ExecutionPanel:
         self.session_id: int | None = None
         self.camera: CameraAnswers | None = None  # when set, it answers sensing nodes
         self._answer_buttons: list[Any] = []
+        self._preparing = False
         self._log: list[str] = []
         self._lock = threading.Lock()  # the answer buttons: executor and GUI threads
-        with gui.add_folder("Execute"):
-            self.start_button = gui.add_button("Execute plan", disabled=True)
-            self.start_button.on_click(lambda e: self.start(e.client_id, e.client))
-            only = operator.only
-            self.pause_button = gui.add_button("Pause / resume", disabled=True)
-            self.pause_button.on_click(only("pause or resume", lambda _: self._pause_resume()))
-            self.step_button = gui.add_button("Step", disabled=True)
-            self.step_button.on_click(
-                only("step", lambda _: self.executor.step() if self.executor else None)
-            )
-            self.abort_button = gui.add_button("Abort", disabled=True)
-            self.abort_button.on_click(
-                only("abort", lambda _: self.executor.abort() if self.executor else None)
-            )
-            self.notice = gui.add_markdown("")
-            self.speed: Any = gui.add_slider("Seconds per step", 0.0, 3.0, 0.1, 0.5)
-            self.human_folder = gui.add_folder("Simulated human")
-            with self.human_folder:
-                self.question = gui.add_markdown("No question yet.")
-            self.log = gui.add_markdown("")
+        self._steps: list[Step] = []
+        self.status = gui.add_markdown(IDLE)
+        self.start_button = gui.add_button("Execute plan", disabled=True, color="green")
+        self.start_button.on_click(lambda e: self.start(e.client_id, e.client))
+        only = operator.only
+        self.pause_button = gui.add_button("Pause", disabled=True)
+        self.pause_button.on_click(only("pause or resume", lambda _: self._pause_resume()))
+        self.step_button = gui.add_button("Step", disabled=True)
+        self.step_button.on_click(
+            only("step", lambda _: self.executor.step() if self.executor else None)
+        )
+        self.abort_button = gui.add_button("Abort", disabled=True, color="red")
+        self.abort_button.on_click(
+            only("abort", lambda _: self.executor.abort() if self.executor else None)
+        )
+        self.notice = gui.add_markdown("")
+        self.human_folder = gui.add_folder("Simulated human")
+        with self.human_folder:
+            self.question = gui.add_markdown("No question yet.")
+        self.strip = gui.add_html("")
+        self.log = gui.add_markdown("")
+        self.speed: Any = gui.add_slider("Seconds per step", 0.0, 3.0, 0.1, 0.5)
         events.subscribe(PlanChanged, self._plan_changed)
         events.subscribe(CameraChanged, self._camera_changed)
 
@@ -111,10 +117,32 @@ class ExecutionPanel:
         return self.executor is not None and not self.executor.done
 
     def start(self, client_id: int | None = None, client: viser.ClientHandle | None = None) -> None:
-        """Starts executing the shown plan, driven by page `client_id` (None: the server)."""
+        """Starts executing the shown plan, driven by page `client_id` (None: the server).
+        Preparing (the voice, the camera, the repairer) runs in its own thread, so
+        the page says so at once."""
         plan = self.stage.current_plan()
-        if plan is None or plan.partial or self.running or self.refusal:
+        if plan is None or plan.partial or self.running or self.refusal or self._preparing:
             return
+        self._preparing = True
+        self.start_button.disabled = True
+        self.status.content = "**Preparing the execution…** (voice, camera, motions)"
+        self.operator.take(client_id)
+        threading.Thread(
+            target=self._prepare, args=(plan, client), name="prepare-execution", daemon=True
+        ).start()
+
+    def _prepare(self, plan: Plan, client: viser.ClientHandle | None) -> None:
+        try:
+            self._launch(plan, client)
+        finally:
+            self._preparing = False
+            if not self.running:
+                self.operator.release()
+                self.start_button.disabled = bool(self.refusal)
+                if self.status.content.startswith("**Preparing"):
+                    self.status.content = IDLE
+
+    def _launch(self, plan: Plan, client: viser.ClientHandle | None) -> None:
         clicks = ClickSource(timeout=None, on_offer=self._offered)  # a person answers
         source: OutcomeSource = clicks
         narrator: Narrator | None = None
@@ -139,24 +167,24 @@ class ExecutionPanel:
             return
         self.session_id = session_id
         scenario = self.stage.current_scenario()  # a surprise plans again from it
-        self.operator.take(client_id)
         self.clicks = clicks
-        self._log = []
+        self._log, self._steps = [], []
+        self.log.content = ""
         self.executor = Executor(
             plan,
             source,
-            [self.store.recorder(self.session_id), self._on_event, *listeners],
+            [self.store.recorder(session_id), self._on_event, *listeners],
             step_delay=float(self.speed.value),
             narrator=narrator,
             repairing=Repairer(scenario, self.store.add_plan).repair if scenario else None,
             retarget=retargeter_for(scenario, plan),
         )
         clicks.slots = self.executor  # a humanAttachingWhere offers every free slot
-        self.start_button.disabled = True
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = False
         self.notice.content = ""
-        self.events.publish(ExecutionStarted(self.session_id))
+        self.status.content = f"**Running** session {session_id}."
+        self.events.publish(ExecutionStarted(session_id))
         self.executor.start()
         self._finisher = threading.Thread(target=self._finish, args=(self.executor,), daemon=True)
         self._finisher.start()
@@ -176,36 +204,54 @@ class ExecutionPanel:
                 self.refuse_executions(str(err))
         self.operator.release()
         self._clear_answers()
-        self._log.append(f"**Session {session_id}: {result}**")
-        self.log.content = "\n\n".join(self._log[-LOG_LINES:])
-        self.question.content = f"Execution ended: {result}."
+        self._add_line(f"**Session {session_id} ended: {result}.**")
+        self.stage.show_path(tuple(self._steps), None)
+        self.question.content = "No question: the execution ended."
+        self.status.content = f"**Ended: {result}** (session {session_id}). {IDLE}"
         self.start_button.disabled = bool(self.refusal)
+        self.pause_button.label = "Pause"
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = True
         if session_id is not None and result is not None:
             self.events.publish(ExecutionFinished(session_id, result))
 
     def _pause_resume(self) -> None:
-        if self.executor is None:
+        executor = self.executor
+        if executor is None or executor.done:
             return
-        if self.executor.paused:
-            self.executor.resume()
+        if executor.paused:
+            executor.resume()
+            self.pause_button.label = "Pause"
+            self.status.content = f"**Running** session {self.session_id}."
         else:
-            self.executor.pause()
+            executor.pause()
+            self.pause_button.label = "Resume"
+            self.status.content = (
+                f"**Paused** (session {self.session_id}): **Resume** goes on, **Step** "
+                "runs one node."
+            )
+
+    def _add_line(self, line: str) -> None:
+        self._log = [*self._log[-(LOG_LINES - 1):], line]  # windowed: the store has all
+        self.log.content = "\n\n".join(self._log)
 
     def _on_event(self, event: ExecutionEvent) -> None:
         # Runs in the executor's thread: a motion takes as long as it is played.
+        self._steps.append(Step(event.node, event.source, event.confidence))
         self.stage.go_to(event.node, show_world=event.motion is None)
+        self.stage.show_path(tuple(self._steps), event.node)
+        self.strip.content = strip_svg([e.node for e in self._steps], self._kinds())
         if event.kind == REPAIR and event.plan is not None:
             self.stage.show_plan(event.plan)  # the execution goes on with the new plan
+        self._add_line(sentence(event))
         if event.motion:
             self._play(event.motion, float(self.speed.value))
             self.stage.show_world(event.node)
-        words = event.text or (str(event.action) if event.action is not None else "")
-        if event.source == "camera":
-            words += f" — **answered by the camera** ({event.confidence})"
-        self._log.append(f"`{event.node}` {event.action or 'goal'}: {words}")
-        self.log.content = "\n\n".join(self._log[-LOG_LINES:])
+
+    def _kinds(self) -> list[str]:
+        plan = self.stage.current_plan()
+        nodes = plan.nodes if plan is not None else {}
+        return [nodes[s.node].kind if s.node in nodes else "open" for s in self._steps]
 
     def _play(self, motion: Motion, seconds: float) -> None:
         path = motion.path
@@ -223,11 +269,16 @@ class ExecutionPanel:
         self._clear_answers()
         if offer is None:
             return
+        # The node asking is the one running: the tree and the selection show it.
+        self.stage.go_to(offer.node_id, show_world=False)
+        self.stage.show_path(tuple(self._steps), offer.node_id)
         with self._lock:
             # Sensing a part's shape or length asks what is on the bench, not the human.
             part = isinstance(offer.action, SenseShapeOf | SenseLengthOf)
             asked = "what is it?" if part else "what does the human do?"
-            self.question.content = f"**{offer.action}**: {asked}"
+            self.question.content = (
+                f"`{offer.node_id}` **{offer.action}**: {asked} *(waiting for an answer)*"
+            )
             with self.human_folder:
                 for label, words in zip(offer.options, offer.words, strict=True):
                     button = self.gui.add_button(words)

@@ -38,14 +38,41 @@ def details_markdown(node_id: str, node: PlanNode) -> str:
     return "\n".join(lines)
 
 
+# One line per statistic: the paper's definitions (over the unfolded tree), then
+# the conversation, which the paper's columns leave out.
+STAT_WORDS = {
+    "L": "leaves: the branches' ends",
+    "D": "the longest branch, in actions (D = A + S + C; talk not counted)",
+    "A": "robot actions on the longest branch",
+    "S": "sensing actions on the longest branch",
+    "C": "communication on the longest branch (talk not counted)",
+    "K": "askHelp nodes: the robot asks for help",
+    "O": "offerHelp nodes: the robot offers help",
+    "CF": "confirmAttach nodes: the robot asks if an attachment is done",
+    "R": "request nodes: the robot asks the human to hold, let go or attach",
+    "DN": "decision nodes: nodes with several outcomes",
+    "BF": "the largest branching factor",
+    "N": "nodes of the unfolded tree (talk not counted)",
+    "GE": "greetings and goodbyes (talk)",
+    "W": "warnings before working near the human (talk)",
+    "X": "explanations of a request (talk)",
+    "dag_nodes": "distinct nodes drawn (identical states planned once)",
+    "plan_s": "seconds planning",
+    "checks_s": "seconds of motion-planning checks",
+}
+
+
 def stats_html(plan: Plan) -> str:
-    """The paper's columns for this plan, as a small table."""
+    """The paper's columns for this plan, as a small table with what each means."""
     stats = plan.stats or {}
     cells = "".join(
-        f"<tr><td>{html.escape(k)}</td><td style='text-align:right'>{stats.get(k, '')}</td></tr>"
+        f"<tr><td><b>{html.escape(k)}</b></td>"
+        f"<td style='text-align:right;padding:0 6px'>{stats.get(k, '')}</td>"
+        f"<td style='color:#555'>{html.escape(STAT_WORDS.get(k, ''))}</td></tr>"
         for k in (*STAT_KEYS, *TIMING_KEYS)
     )
     return (
-        "<table style='font-size:0.8em;border-collapse:collapse'>"
-        "<tr><th>statistic</th><th>value</th></tr>" + cells + "</table>"
+        "<table style='font-size:0.75em;border-collapse:collapse;line-height:1.25'>"
+        "<tr><th>stat</th><th>value</th><th style='text-align:left'>meaning</th></tr>"
+        + cells + "</table>"
     )

@@ -47,7 +47,7 @@ class NodePanel:
         self.stage = stage
         self.selected: str | None = None
         self.view: NodeView | None = None
-        self.folder = gui.add_folder("Selected node")
+        self.folder = gui.add_folder("Details")
         with self.folder:
             self.details = gui.add_markdown(NOTHING_SELECTED)
             self.toggle_button = gui.add_button("Collapse / expand", disabled=True)

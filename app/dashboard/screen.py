@@ -1,4 +1,4 @@
-"""What every page shows in 3D: the bench, the plan tree, the plan and the selected node.
+"""What every page shows: the bench in 3D, the plan tree in its panel, the selection.
 
 The `Screen` is the panels' `Stage` (stage.py). Planning, executions, reviews
 and clicks reach it from different threads, so one lock keeps the plan, the
@@ -14,21 +14,24 @@ from collections.abc import Mapping
 import viser
 
 from app.dashboard.bench_scene import BenchScene
-from app.dashboard.stage import Events, NodeSelected, PlanChanged, TreeFrame
-from app.dashboard.tree_view import WALL_X, TreeView
+from app.dashboard.stage import Events, NodeSelected, PlanChanged
+from app.dashboard.tree_svg import Step
+from app.dashboard.tree_view import TreeView
 from app.execution.world import world_at
 from planner.plan.model import Plan
 from planner.scenario.model import Scenario
 
 
 class Screen:
-    """The stage of the dashboard; the bench's models are loaded apart
-    (`bench.load_models`), after the panels, so a new page can be used first."""
+    """The stage of the dashboard. The tree panel is built in the GUI container
+    current when the screen is made (the server's "Plan tree" tab); the bench's
+    models are loaded apart (`bench.load_models`), after the panels, so a new
+    page can be used first."""
 
     def __init__(self, server: viser.ViserServer, events: Events) -> None:
         self.events = events
         self.bench = BenchScene(server, load_models=False)
-        self.tree = TreeView(server, self.select)
+        self.tree = TreeView(server.gui, self.select)
         self.plan: Plan | None = None
         self.scenario: Scenario | None = None
         self.selected: str | None = None
@@ -49,7 +52,10 @@ class Screen:
         self.drop_plan()
 
     def drop_plan(self) -> None:
-        self.plan = None
+        with self._lock:
+            self.plan = None
+            self.selected = None
+            self.tree.clear()
         self.events.publish(PlanChanged(None))
 
     def show_growing(self, plan: Plan) -> None:
@@ -90,6 +96,9 @@ class Screen:
         self.tree.toggle(node_id)
         self.tree.highlight(node_id)
 
+    def show_path(self, path: tuple[Step, ...], current: str | None) -> None:
+        self.tree.show_path(path, current)
+
     def show_world(self, node_id: str) -> None:
         """The bench as `node_id` leaves it (after an arm's motion has been played)."""
         with self._lock:
@@ -108,13 +117,3 @@ class Screen:
 
     def show_arms(self, arms: Mapping[str, list[float]]) -> None:
         self.bench.show_arms(dict(arms))
-
-    def tree_frame(self) -> TreeFrame | None:
-        with self._lock:
-            if self.tree.current is None:
-                return None
-            y, z, width, height = self.tree.centre()
-            selected, where = self.selected, None
-            if selected is not None and selected in self.tree.current.positions:
-                where = self.tree.world(selected)
-            return TreeFrame(WALL_X, (y, z), (width, height), where)

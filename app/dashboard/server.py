@@ -19,6 +19,7 @@ import viser
 from app.dashboard.bench_scene import BenchScene
 from app.dashboard.camera_panel import CameraPanel
 from app.dashboard.execution_panel import ExecutionPanel
+from app.dashboard.layout import GUIDE, Layout
 from app.dashboard.mesh_detail import DEFAULT_DETAIL
 from app.dashboard.node_panel import NodePanel
 from app.dashboard.operator import Operator
@@ -86,16 +87,21 @@ class Dashboard:
         self.server = server = _serve(host, port)
         self.events = events = Events()
         self.operator = Operator()
-        self.screen = screen = Screen(server, events)
         gui = server.gui
         # Panels first, in the page's order: a new page gets messages in creation
         # order, so it can be used while the robot's meshes (~5 MB) still arrive.
-        gui.add_markdown("**Tandem**: plans for a robot and a human building a table")
+        # The layout (layout.py): set-up, plan and review on the left, above the
+        # camera; the tree and the selected node on the right, above the execution.
+        panels = Layout(gui)
+        with panels.tree_tab:
+            self.screen = screen = Screen(server, events)
+        with panels.node_tab:
+            self.node_panel = NodePanel(gui, screen, events)
+        gui.add_markdown(GUIDE)
         self.scenario_panel = ScenarioPanel(gui, screen, events, self.folders, server.atomic)
         self.plan_panel = PlanPanel(
             gui, screen, events, PlanSettings(s.workers, s.cache_dir, s.cluster)
         )
-        self.node_panel = NodePanel(gui, screen, events)
         self.view_panel = ViewPanel(gui, screen, events, lambda: server.get_clients().values())
         try:
             self.store = SessionStore(data)
@@ -103,15 +109,19 @@ class Dashboard:
             server.stop()
             raise
         self.speech = SpeechPanel(gui, screen, events, s.speak)
-        self.execution = ExecutionPanel(
-            gui, screen, events, self.store, self.operator, self.speech.responses
-        )
+        with panels.execution_tab:
+            self.execution = ExecutionPanel(
+                gui, screen, events, self.store, self.operator, self.speech.responses
+            )
         if self.store.read_only is not None:
             self.execution.refuse_executions(self.store.read_only)
         self.review = ReviewPanel(gui, screen, events, self.store)
-        self.camera_panel = CameraPanel(
-            gui, screen, events, self.operator, data / RECORDINGS_FOLDER
-        )
+        with panels.camera_tab:
+            self.camera_panel = CameraPanel(
+                gui, screen, events, self.operator, data / RECORDINGS_FOLDER,
+                on_enlarge=panels.enlarge_camera,
+            )  # fmt: skip
+        self.layout = panels
         if s.load_models:
             screen.bench.load_models(s.mesh_detail)
         server.on_client_connect(self.view_panel.greet)

@@ -10,8 +10,8 @@ review, live camera, speech):
   dashboard, the server or another panel.
 - `Stage` is all a panel may do to what is on screen: show a scenario's bench,
   show a plan (complete or growing), select a node or go to it, fold a branch,
-  show the world at a node, move the arms, read the current plan, scenario and
-  where the tree is drawn.
+  show the world at a node, move the arms, mark an execution's path on the
+  tree, read the current plan and scenario.
 - Panels tell each other what happened only through `Events`: typed,
   documented messages (as viser's own messages are), delivered synchronously
   to the subscribers in the order they subscribed. No panel changes another
@@ -28,6 +28,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
+from app.dashboard.tree_svg import Step
 from app.execution.events import ExecutionEvent, OutcomeSource, Result
 from planner.plan.model import Plan, PlanNode
 from planner.scenario.model import Scenario
@@ -85,21 +86,10 @@ class Stage(Protocol):
         """No plan is shown any more (planning again): nobody may execute it."""
         ...
 
-    def tree_frame(self) -> TreeFrame | None:
-        """Where the plan tree is drawn; None before any plan."""
+    def show_path(self, path: tuple[Step, ...], current: str | None) -> None:
+        """Mark an execution's (or a review's) steps so far on the tree; `current`
+        is the node running now (None: the run ended)."""
         ...
-
-
-@dataclass(frozen=True)
-class TreeFrame:
-    """Where the drawn plan tree stands in the scene, in metres: the x of its
-    wall, the (y, z) of its middle, its width and height, and the selected node
-    (None when it is not drawn: no selection, or in a folded branch)."""
-
-    wall_x: float
-    middle: tuple[float, float]
-    size: tuple[float, float]
-    selected: tuple[float, float, float] | None
 
 
 # -- messages -------------------------------------------------------------------

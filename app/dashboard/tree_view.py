@@ -1,218 +1,290 @@
-"""The plan tree drawn in the 3D scene on a wall, with clickable nodes.
+"""The plan tree panel: the tree as a picture (tree_svg.py) the user zooms, pans and clicks.
 
-Plotly clicks never reach a viser server, but clicks on scene nodes do, so the
-tree is made of boxes (nodes), line segments (edges) and labels, on a vertical
-wall behind the viewer of the bench (x = WALL_X, facing the bench). The "Plan tree"
-camera looks straight at it; orbit controls give zoom and pan.
+The picture is an SVG in a `gui.add_html` element. viser sends no clicks from
+HTML, so the picture's own handlers (inline attributes: the page runs them,
+unlike `<script>`) write what happened into a text field of the panel that
+the page never shows, as a user typing would: "select:n7", "toggle:n7" (a
+folded branch's badge), "view:x,y,w,h" (after a zoom or a pan, so the next
+picture keeps it). The server answers a click by drawing again.
+
+Wheel zooms about the pointer, dragging pans; "Fit" shows all, "Follow"
+keeps the node being executed in view. Large plans open on the expected
+branch (`SpanningTree.default_collapsed`); a badge "+N" under a folded node
+opens it.
 """
 
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
 import viser
 
 from app.dashboard.tree_layout import SpanningTree, TreeLayout, layout
-from planner.plan.model import KIND_COLOURS, Plan
-from planner.vocabulary import Action
+from app.dashboard.tree_svg import LEGEND, Geometry, Step, TreeMarks, draw, geometry, label
+from planner.plan.model import Plan
 
-WALL_X = 8.0
-SCALE = 0.25  # metres per layout unit
-TOP_Z = 2.0  # the root's height on the wall
-# More visible nodes than this: labels only on the expected branch and around the
-# selection, since screen-sized labels of neighbouring columns would overlap.
-LABEL_LIMIT = 40
-PREFIX = "/tree"
-OPEN_COLOUR = (235, 235, 235)
-SELECTED = (220, 30, 160)
+VIEW_W, VIEW_H = 560.0, 520.0  # picture pixels shown at first (about the panel's size)
+BRIDGE = "tree:"  # what the hidden field's value starts with
+GROWING_EVERY_S = 0.5  # a plan being built is drawn at most this often
+
+# The picture's handlers, defined once per page (an image that fails to load runs them).
+_SCRIPT = (
+    "if(!window.tandemTree){window.tandemTree={"
+    "send:function(m){var i=document.querySelector('input[value^=\\'tree:\\']');if(!i)return;"
+    "Object.getOwnPropertyDescriptor(HTMLInputElement.prototype,'value').set"
+    ".call(i,'tree:'+m+':'+Date.now());i.dispatchEvent(new Event('input',{bubbles:true}));},"
+    "report:function(s){clearTimeout(this.t);var b=s.viewBox.baseVal;"
+    "this.t=setTimeout(function(){tandemTree.send('view:'+[b.x,b.y,b.width,b.height]"
+    ".map(function(v){return v.toFixed(1)}).join(','))},250);},"
+    "wheel:function(e){e.preventDefault();var s=e.currentTarget,b=s.viewBox.baseVal;"
+    "var p=new DOMPoint(e.clientX,e.clientY).matrixTransform(s.getScreenCTM().inverse());"
+    "var k=Math.min(4,Math.max(0.25,Math.exp(e.deltaY*0.0015)));"
+    "b.x=p.x-(p.x-b.x)*k;b.y=p.y-(p.y-b.y)*k;b.width*=k;b.height*=k;this.report(s);},"
+    "down:function(e){var s=e.currentTarget,b=s.viewBox.baseVal,r=s.getBoundingClientRect();"
+    "this.drag={x:e.clientX,y:e.clientY,bx:b.x,by:b.y,"
+    "k:Math.max(b.width/r.width,b.height/r.height),moved:false};},"
+    "move:function(e){var d=this.drag;if(!d)return;var dx=e.clientX-d.x,dy=e.clientY-d.y;"
+    "if(Math.abs(dx)+Math.abs(dy)>4)d.moved=true;if(!d.moved)return;"
+    "var b=e.currentTarget.viewBox.baseVal;b.x=d.bx-dx*d.k;b.y=d.by-dy*d.k;},"
+    "up:function(e){var d=this.drag;this.drag=null;if(d&&d.moved){this.report(e.currentTarget);"
+    "return;}var t=e.target.closest('[data-toggle]');"
+    "if(t){this.send('toggle:'+t.dataset.toggle);return;}"
+    "var n=e.target.closest('[data-node]');if(n)this.send('select:'+n.dataset.node);}"
+    "};}"
+    # Each picture: report the element's size in pixels when it changed, so the
+    # server keeps one picture pixel per screen pixel at zoom 1.
+    "setTimeout(function(){var s=document.querySelector('svg.tandem-tree');if(!s)return;"
+    "var r=s.getBoundingClientRect(),z=Math.round(r.width)+','+Math.round(r.height);"
+    "if(r.width>0&&z!==tandemTree.z){tandemTree.z=z;tandemTree.send('size:'+z);}},50);"
+)
+_HANDLERS = (
+    'onwheel="tandemTree.wheel(event)" onpointerdown="tandemTree.down(event)" '
+    'onpointermove="tandemTree.move(event)" onpointerup="tandemTree.up(event)" '
+    'onpointerleave="tandemTree.drag=null"'
+)
+# The picture fills the tab's width and about the tree panel's height.
+_SVG_STYLE = (
+    'style="width:100%;height:max(240px,calc(50vh - 110px));cursor:grab;'
+    'touch-action:none;user-select:none"'
+)
+_STYLE = (
+    '<style>.mantine-Flex-root:has(> div > .mantine-TextInput-root input[value^="tree:"])'
+    "{display:none}</style>"
+)
+EMPTY = "<p>No plan yet: press <b>Plan</b>.</p>"
 
 
-def rgb(hex_colour: str) -> tuple[int, int, int]:
-    h = hex_colour.lstrip("#")
-    return (int(h[0:2], 16), int(h[2:4], 16), int(h[4:6], 16))
-
-
-def short(action: Action | None, kind: str) -> str:
-    if action is None:
-        return "goal" if kind == "goal" else "..."
-    return str(action).replace("sense(", "sense ").replace("humanHolding", "hHolding")
+def legend_html() -> str:
+    items = "".join(
+        f'<span style="display:inline-flex;align-items:center;margin:0 10px 3px 0">'
+        f'<span style="display:inline-block;width:18px;height:11px;margin-right:4px;{style}">'
+        f"</span>{words}</span>"
+        for style, words in LEGEND
+    )
+    return f'<div style="font-size:11px;line-height:1.3">{items}</div>'
 
 
 class TreeView:
-    """Draws a plan (or the part planned so far); `on_select(node_id)` on clicks."""
+    """The tree panel. `on_select(node_id)` on a click; `show` draws a plan."""
 
-    def __init__(self, server: viser.ViserServer, on_select: Callable[[str], None]) -> None:
-        self.server = server
+    def __init__(self, gui: viser.GuiApi, on_select: Callable[[str], None]) -> None:
         self.on_select = on_select
         self.plan: Plan | None = None
         self.tree: SpanningTree | None = None
         self.collapsed: set[str] = set()
         self.current: TreeLayout | None = None
-        self._handles: list[viser.SceneNodeHandle] = []
-        self._highlight: viser.BoxHandle | None = None
-        self._near_selection: list[viser.SceneNodeHandle] = []
-        self.labelled_all = True
+        self.geometry: Geometry | None = None
+        self.marks = TreeMarks()
+        self.view: tuple[float, float, float, float] = (0.0, 0.0, VIEW_W, VIEW_H)
+        self.size = (VIEW_W, VIEW_H)  # the picture's element on the page, in pixels
+        self._drawn_at = 0.0
+        self._found: list[str] = []
         # Planning, execution and clicks redraw from different threads.
         self._lock = threading.RLock()
+        self.bridge: Any = gui.add_text("tree events", BRIDGE)
+        self.bridge.on_update(lambda _: self._bridged(str(self.bridge.value)))
+        with gui.add_folder("Find and view", expand_by_default=False):
+            self.find_text: Any = gui.add_text("Find action or node", "")
+            self.find_button = gui.add_button("Find next")
+            self.find_button.on_click(lambda _: self.find(str(self.find_text.value)))
+            self.found = gui.add_markdown("")
+            self.follow: Any = gui.add_checkbox("Follow the execution", True)
+            zoom = gui.add_button_group("Zoom", ("Fit", "In", "Out", "Root"))
+            zoom.on_click(lambda e: self.zoom(str(e.target.value)))
+            gui.add_html(legend_html())
+        self.picture = gui.add_html(_STYLE + EMPTY)
 
-    # -- geometry ---------------------------------------------------------------
+    # -- what the page sends ------------------------------------------------------
 
-    def world(self, node_id: str) -> tuple[float, float, float]:
-        assert self.current is not None
-        lx, ly = self.current.positions[node_id]
-        return (WALL_X, -lx * SCALE, TOP_Z - ly * SCALE)
+    def _bridged(self, value: str) -> None:
+        parts = value.removeprefix(BRIDGE).split(":")
+        if len(parts) < 2:
+            return
+        what, arg = parts[0], parts[1]
+        if what == "select":
+            self.on_select(arg)
+        elif what == "toggle":
+            self.toggle(arg)
+        elif what == "size":
+            self._resized(arg)
+        elif what == "view":
+            numbers = [float(v) for v in arg.split(",")]
+            if len(numbers) == 4 and numbers[2] > 0 and numbers[3] > 0:
+                self.view = (numbers[0], numbers[1], numbers[2], numbers[3])
 
-    def centre(self) -> tuple[float, float, float, float]:
-        """(y, z) of the middle of the drawn tree, and its width and height in metres."""
-        assert self.current is not None
-        pts = [self.world(n) for n in self.current.positions]
-        ys = [p[1] for p in pts]
-        zs = [p[2] for p in pts]
-        return (
-            (max(ys) + min(ys)) / 2,
-            (max(zs) + min(zs)) / 2,
-            max(ys) - min(ys),
-            max(zs) - min(zs),
-        )
+    def _resized(self, arg: str) -> None:
+        numbers = [float(v) for v in arg.split(",")]
+        if len(numbers) != 2 or min(numbers) <= 0:
+            return
+        with self._lock:
+            k = self.view[2] / self.size[0]  # picture pixels per screen pixel now
+            self.size = (numbers[0], numbers[1])
+            x, y, _, _ = self.view
+            self.view = (x, y, numbers[0] * k, numbers[1] * k)
+            self.redraw()
 
-    # -- drawing ----------------------------------------------------------------
+    # -- drawing --------------------------------------------------------------------
 
     def show(self, plan: Plan, *, keep_collapsed: bool = False) -> None:
-        """Draw `plan`; a new plan gets the default collapsing (expected branch open)."""
-        self.plan = plan
-        self.tree = SpanningTree.of(plan)
-        if not keep_collapsed:
-            self.collapsed = self.tree.default_collapsed(plan)
-        self.redraw()
-
-    def toggle(self, node_id: str) -> None:
-        if node_id in self.collapsed:
-            self.collapsed.discard(node_id)
-        else:
-            self.collapsed.add(node_id)
-        self.redraw()
-
-    def expand_to(self, node_id: str) -> None:
-        """Open every collapsed ancestor so `node_id` is visible."""
-        assert self.tree is not None
-        hidden = set(self.tree.lineage(node_id)[:-1]) & self.collapsed
-        if hidden:  # redraw only when something opens
-            self.collapsed -= hidden
+        """Draw `plan`; a new plan gets the default folding (expected branch open)
+        and a view on its root. A plan being built is drawn at most every
+        `GROWING_EVERY_S` (its last state is drawn when it is complete)."""
+        with self._lock:
+            first = self.plan is None or self.plan.root != plan.root or not keep_collapsed
+            self.plan = plan
+            self.tree = SpanningTree.of(plan)
+            if not keep_collapsed:
+                self.collapsed = self.tree.default_collapsed(plan)
+                self.marks = TreeMarks()
+            now = time.monotonic()
+            if plan.partial and now - self._drawn_at < GROWING_EVERY_S:
+                return
+            self._drawn_at = now
+            self._layout()
+            if first:
+                self.zoom("Root")
             self.redraw()
+
+    def clear(self) -> None:
+        """No plan: the panel says how to make one."""
+        with self._lock:
+            self.plan = self.tree = self.current = self.geometry = None
+            self.marks = TreeMarks()
+            self.picture.content = _STYLE + EMPTY
+
+    def _layout(self) -> None:
+        assert self.plan is not None and self.tree is not None
+        self.current = layout(self.tree, self.collapsed)
+        self.geometry = geometry(self.plan, self.current)
 
     def redraw(self) -> None:
         with self._lock:
-            self._redraw()
+            if self.plan is None or self.current is None:
+                return
+            svg = draw(self.plan, self.current, self.marks, self.view)
+            svg = svg.replace("<svg ", f"<svg {_SVG_STYLE} {_HANDLERS} ", 1)
+            script = f'<img src="data:," style="display:none" onerror="{_SCRIPT}">'
+            self.picture.content = _STYLE + script + svg
 
-    def _redraw(self) -> None:
-        assert self.plan is not None and self.tree is not None
-        for handle in self._handles + self._near_selection:
-            handle.remove()
-        self._handles, self._near_selection = [], []
-        self.current = layout(self.tree, self.collapsed)
-        nodes = self.plan.nodes
-        scene = self.server.scene
-        size = (0.02, 0.7 * SCALE, 0.45 * SCALE)
-        labelled = self.labelled_all = len(self.current.positions) <= LABEL_LIMIT
-        branch = {node_id for node_id, _ in self.plan.expected_path()}
-        for node_id in self.current.positions:
-            node = nodes[node_id]
-            kind = node.kind
-            colour = rgb(KIND_COLOURS[kind]) if kind in KIND_COLOURS else OPEN_COLOUR
-            box = scene.add_box(
-                f"{PREFIX}/nodes/{node_id}", color=colour, dimensions=size,
-                position=self.world(node_id),
-            )  # fmt: skip
-            box.on_click(self._clicked(node_id))
-            self._handles.append(box)
-            hidden = self.current.hidden_below.get(node_id)
-            named = labelled or node_id in branch
-            if named or hidden:
-                text = short(node.action, kind) if named else ""
-                if hidden:
-                    text += f"  [+{hidden}]"
-                self._handles.append(self._label(node_id, text.strip()))
-        self._draw_edges(labelled)
+    def toggle(self, node_id: str) -> None:
+        with self._lock:
+            if self.tree is None or not self.tree.children.get(node_id):
+                return
+            self.collapsed ^= {node_id}
+            self._layout()
+            self.redraw()
 
-    def _label(self, node_id: str, text: str, name: str = "labels") -> viser.LabelHandle:
-        x, y, z = self.world(node_id)
-        return self.server.scene.add_label(
-            f"{PREFIX}/{name}/{node_id}", text, position=(x - 0.02, y, z + 0.3 * SCALE),
-            anchor="bottom-center", font_screen_scale=0.7,
-        )  # fmt: skip
-
-    def _draw_edges(self, labelled: bool) -> None:
-        assert self.current is not None
-        tree_edges = [e for e in self.current.edges if not e.shared]
-        shared = [e for e in self.current.edges if e.shared]
-        for name, edges, colour, width in (
-            ("edges", tree_edges, (90, 90, 90), 2.0),
-            ("shared", shared, (170, 170, 220), 1.0),
-        ):
-            if not edges:
-                continue
-            points = np.array([[self.world(e.parent), self.world(e.child)] for e in edges])
-            self._handles.append(
-                self.server.scene.add_line_segments(
-                    f"{PREFIX}/{name}",
-                    points,
-                    colour,
-                    thickness=width,
-                    thickness_units="screen",
-                )  # fmt: skip
-            )
-        if labelled:
-            for e in tree_edges:
-                if e.outcome is None:
-                    continue
-                a, b = np.array(self.world(e.parent)), np.array(self.world(e.child))
-                mid = (a + b) / 2 - np.array([0.03, 0.0, 0.0])
-                self._handles.append(
-                    self.server.scene.add_label(
-                        f"{PREFIX}/outcomes/{e.parent}-{e.child}",
-                        e.outcome,
-                        position=tuple(mid),
-                        anchor="center-center",
-                        font_screen_scale=0.6,
-                    )  # fmt: skip
-                )
+    def expand_to(self, node_id: str) -> None:
+        """Open every folded ancestor so `node_id` is visible."""
+        with self._lock:
+            assert self.tree is not None
+            hidden = set(self.tree.lineage(node_id)[:-1]) & self.collapsed
+            if hidden:
+                self.collapsed -= hidden
+                self._layout()
 
     def highlight(self, node_id: str) -> None:
+        """Mark `node_id` selected (and keep it in view if it is off the picture)."""
         with self._lock:
-            self._highlight_node(node_id)
+            self.marks = TreeMarks(node_id, self.marks.current, self.marks.path,
+                                   self.marks.matches)  # fmt: skip
+            self._keep_in_view(node_id)
+            self.redraw()
 
-    def _highlight_node(self, node_id: str) -> None:
-        if self.current is None or node_id not in self.current.positions:
+    def show_path(self, path: tuple[Step, ...], current: str | None) -> None:
+        """An execution's (or a review's) steps so far; `current` runs now."""
+        with self._lock:
+            self.marks = TreeMarks(self.marks.selected, current, path, self.marks.matches)
+            if current is not None and bool(self.follow.value):
+                self._centre(current)
+            self.redraw()
+
+    # -- where the picture looks ------------------------------------------------------
+
+    def _keep_in_view(self, node_id: str) -> None:
+        geo = self.geometry
+        if geo is None or node_id not in geo.boxes:
             return
-        self._label_selection(node_id)
-        x, y, z = self.world(node_id)
-        if self._highlight is None:
-            self._highlight = self.server.scene.add_box(
-                f"{PREFIX}/selected", color=SELECTED, dimensions=(0.01, 0.9 * SCALE, 0.65 * SCALE),
-                position=(x + 0.03, y, z),
-            )  # fmt: skip
-        else:
-            self._highlight.position = (x + 0.03, y, z)
+        x, y = geo.centre(node_id)
+        vx, vy, vw, vh = self.view
+        if not (vx <= x <= vx + vw and vy <= y <= vy + vh):
+            self._centre(node_id)
 
-    def _label_selection(self, node_id: str) -> None:
-        """In a crowded tree, name the selected node and its children."""
-        for handle in self._near_selection:
-            handle.remove()
-        self._near_selection = []
-        if self.labelled_all or self.plan is None or self.current is None:
+    def _centre(self, node_id: str) -> None:
+        geo = self.geometry
+        if geo is None or node_id not in geo.boxes:
             return
-        nodes = self.plan.nodes
-        around = [node_id] + [k.node for k in nodes[node_id].children]
-        for n in around:
-            if n in self.current.positions:
-                text = short(nodes[n].action, nodes[n].kind)
-                self._near_selection.append(self._label(n, text, "near"))
+        x, y = geo.centre(node_id)
+        _, _, w, h = self.view
+        self.view = (x - w / 2, y - h / 3, w, h)
 
-    def _clicked(self, node_id: str) -> Callable[[Any], None]:
-        def handler(_: Any) -> None:
-            self.on_select(node_id)
+    def zoom(self, how: str) -> None:
+        with self._lock:
+            geo = self.geometry
+            if geo is None or self.plan is None:
+                return
+            x, y, w, h = self.view
+            sw, sh = self.size
+            if how == "Fit":
+                scale = max(geo.width / sw, geo.height / sh, 1.0)
+                self.view = (0.0, 0.0, sw * scale, sh * scale)
+            elif how in ("In", "Out"):
+                k = 0.7 if how == "In" else 1 / 0.7
+                cx, cy = x + w / 2, y + h / 2
+                self.view = (cx - w * k / 2, cy - h * k / 2, w * k, h * k)
+            else:  # the root, at the first zoom
+                self.view = (0.0, 0.0, sw, sh)
+                self._centre(self.plan.root)
+                rx, _, rw, rh = self.view
+                self.view = (rx, 0.0, rw, rh)
+            self.redraw()
 
-        return handler
+    # -- finding ----------------------------------------------------------------------
+
+    def find(self, text: str) -> None:
+        """Go to the next node whose action or id contains `text` (case ignored)."""
+        with self._lock:
+            plan = self.plan
+            wanted = text.strip().lower()
+            if plan is None or not wanted:
+                self.found.content = ""
+                return
+            matches = [n for n, node in plan.nodes.items()
+                       if wanted in label(node).lower() or wanted == n.lower()]  # fmt: skip
+            if not matches:
+                self.found.content = f"No node's action contains “{text.strip()}”."
+                self.marks = TreeMarks(self.marks.selected, self.marks.current, self.marks.path)
+                self.redraw()
+                return
+            after = [n for n in matches if self._found and n > self._found[-1]]
+            target = after[0] if after else matches[0]
+            self._found = [target]
+            self.found.content = f"{matches.index(target) + 1} of {len(matches)}: `{target}`."
+            self.marks = TreeMarks(self.marks.selected, self.marks.current, self.marks.path,
+                                   frozenset(matches))  # fmt: skip
+            self.expand_to(target)
+            self._centre(target)
+        self.on_select(target)

@@ -1,0 +1,93 @@
+"""The plan tree as a picture and the log as sentences (pure: no page)."""
+
+from __future__ import annotations
+
+import re
+
+from app.dashboard.log_lines import action_words, sentence
+from app.dashboard.tree_layout import SpanningTree, layout
+from app.dashboard.tree_svg import (
+    CURRENT,
+    PATH,
+    QUESTION_FILL,
+    Step,
+    TreeMarks,
+    draw,
+    geometry,
+    label,
+    strip_svg,
+)
+from app.execution.events import ExecutionEvent
+from planner.plan.model import Plan
+from planner.vocabulary import Hold, SenseHumanHolding
+from tests.plan_fixtures import SCENARIOS, default_plan, plan_of
+
+
+def _boxes_overlap(plan: Plan, collapsed: set[str]) -> list[tuple[str, str]]:
+    tree = SpanningTree.of(plan)
+    geo = geometry(plan, layout(tree, collapsed))
+    rows: dict[float, list[float]] = {}
+    for x, y in geo.boxes.values():
+        rows.setdefault(y, []).append(x)
+    clashes = []
+    for xs in rows.values():
+        xs.sort()
+        clashes += [(f"{a}", f"{b}") for a, b in zip(xs, xs[1:], strict=False)
+                    if b - a < geo.column_px]  # fmt: skip
+    return clashes
+
+
+def test_no_two_boxes_share_space_open_or_folded() -> None:
+    plan = default_plan()
+    tree = SpanningTree.of(plan)
+    assert _boxes_overlap(plan, set()) == []
+    assert _boxes_overlap(plan, tree.default_collapsed(plan)) == []
+
+
+def test_the_large_plan_opens_on_its_expected_branch_without_overlaps() -> None:
+    plan = plan_of(SCENARIOS / "paper" / "U10.toml")
+    tree = SpanningTree.of(plan)
+    folded = tree.default_collapsed(plan)
+    shown = layout(tree, folded)
+    assert len(plan.nodes) > 5000 and len(shown.positions) < 400
+    assert all(node in shown.positions for node, _ in plan.expected_path())
+    assert _boxes_overlap(plan, folded) == []
+
+
+def test_the_picture_names_actions_outcomes_and_the_run() -> None:
+    plan = default_plan()
+    tree = SpanningTree.of(plan)
+    shown = layout(tree, set())
+    walked = [node for node, _ in plan.expected_path()][:4]
+    marks = TreeMarks(selected=walked[0], current=walked[-1],
+                      path=tuple(Step(n, "click") for n in walked[:-1]))  # fmt: skip
+    svg = draw(plan, shown, marks, (0, 0, 500, 500))
+    labels = re.findall(r'<text class="label"[^>]*>([^<]*)<', svg)
+    assert len(labels) == len(shown.positions)
+    assert all(text == label(plan.nodes[n]) for n, text in
+               zip(shown.positions, labels, strict=True))  # fmt: skip
+    branching = [e for e in shown.edges if e.outcome is not None and not e.shared]
+    assert branching and svg.count('class="outcome"') == len(branching)
+    assert f'stroke="{CURRENT}"' in svg and f'stroke="{PATH}"' in svg
+    assert "· click" in svg  # who answered, on the answered nodes
+    if any(n.kind == "communication" and len(n.children) > 1 for n in plan.nodes.values()):
+        assert QUESTION_FILL in svg
+
+
+def test_the_timeline_strip_frames_the_running_step() -> None:
+    assert strip_svg([], []) == ""
+    strip = strip_svg(["n0", "n1", "n2"], ["communication", "actuation", "sensing"])
+    assert strip.count("<rect") == 3 and strip.count(CURRENT) == 1 and "step 3" in strip
+    long = strip_svg([f"n{i}" for i in range(100)], ["actuation"] * 100)
+    assert long.count("<rect") == 40 and "the last 40 shown" in long
+
+
+def test_log_lines_are_sentences_with_who_answered() -> None:
+    assert action_words(Hold("left", "leg1")) == "The robot holds leg1 with its left arm."
+    held = ExecutionEvent(3, 0.0, "n3", SenseHumanHolding(), "sensing", outcome="holding",
+                          source="camera", confidence=0.93)  # fmt: skip
+    line = sentence(held)
+    assert line.startswith("`n3` The robot looks whether the human holds a part.")
+    assert "**holding** (by the camera, 93% sure)" in line
+    said = ExecutionEvent(1, 0.0, "n1", None, "communication", text="Hello!")
+    assert sentence(said) == "`n1` The robot says: “Hello!”"
