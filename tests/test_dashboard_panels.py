@@ -155,8 +155,12 @@ def test_the_plan_panels_lines() -> None:
     scenario = scenario_edit.load_file("default.toml").scenario
     assert scenario is not None
     parts = len(scenario.parts)
-    assert scenario_line(scenario, edited=False) == f"Scenario **paper-base** ({parts} parts)."
-    assert scenario_line(scenario, edited=True) == "Scenario changed: plan again."
+    assert scenario_line(scenario, edited=False) == (
+        f"Scenario **paper-base** ({parts} parts): not planned yet."
+    )
+    assert scenario_line(scenario, edited=True) == (
+        "Scenario changed: not planned yet, press **Plan**."
+    )
 
 
 def test_nobody_plans_during_an_execution_or_twice_at_once() -> None:

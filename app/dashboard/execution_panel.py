@@ -105,6 +105,13 @@ class ExecutionPanel:
     def _plan_changed(self, message: PlanChanged) -> None:
         ready = message.plan is not None and not message.plan.partial
         self.start_button.disabled = not ready or self.running or bool(self.refusal)
+        if message.plan is None and not self.running:
+            # Another scenario, or planning again: the last run's lines go.
+            self._log, self._steps = [], []
+            self.log.content = self.strip.content = ""
+            self.question.content = "No question yet."
+            if not self.refusal:
+                self.status.content = IDLE
 
     def refuse_executions(self, reason: str) -> None:
         """No execution may start (it could not be recorded); `reason` is shown."""

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import viser
 
 from app.dashboard.node_details import details_markdown
-from app.dashboard.stage import Events, NodeSelected, Stage
+from app.dashboard.stage import Events, NodeSelected, PlanChanged, Stage
 
 NOTHING_SELECTED = "Click a node of the plan tree."
 
@@ -56,6 +56,14 @@ class NodePanel:
             self.parent_button.on_click(lambda _: self._to_parent())
             self.children_group: viser.GuiButtonGroupHandle | None = None
         events.subscribe(NodeSelected, self._selected)
+        events.subscribe(PlanChanged, self._plan_changed)
+
+    def _plan_changed(self, message: PlanChanged) -> None:
+        if message.plan is None:  # no plan: nothing is selected
+            self.selected = self.view = None
+            self.details.content = NOTHING_SELECTED
+            self.toggle_button.disabled = self.parent_button.disabled = True
+            self._child_buttons({})
 
     def _selected(self, message: NodeSelected) -> None:
         view = node_view(message)

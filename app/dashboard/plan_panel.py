@@ -64,8 +64,8 @@ def status_line(status: JobStatus) -> str:
 
 def scenario_line(scenario: Scenario, edited: bool) -> str:
     if edited:
-        return "Scenario changed: plan again."
-    return f"Scenario **{scenario.name}** ({len(scenario.parts)} parts)."
+        return "Scenario changed: not planned yet, press **Plan**."
+    return f"Scenario **{scenario.name}** ({len(scenario.parts)} parts): not planned yet."
 
 
 def plan_refused(executing: bool, planning: bool) -> bool:
@@ -166,16 +166,20 @@ class PlanPanel:
             return
         self.plan_button.disabled = plan_refused(self.executing, planning=False)
         self.cancel_button.disabled = True
-        if status.state == "done" and job is not None and job.plan is not None:
+        # A plan of a scenario no longer loaded is never shown.
+        current = job is not None and job.scenario is self.stage.current_scenario()
+        if status.state == "done" and job is not None and job.plan is not None and current:
             self.stage.show_plan(job.plan)
             self.events.publish(Planned(job.plan))
 
     def _scenario_changed(self, message: ScenarioChanged) -> None:
+        if self.job is not None and self.job.running:
+            self.job.cancel()  # it plans the scenario before
+        show(self.progress, 0.0)
         self.status.content = scenario_line(message.scenario, message.edited)
 
     def _plan_changed(self, message: PlanChanged) -> None:
-        if message.plan is not None:
-            self.stats.content = stats_html(message.plan)
+        self.stats.content = stats_html(message.plan) if message.plan is not None else ""
 
     def _lock(self, locked: bool) -> None:
         """While an execution runs nobody may plan again under it."""

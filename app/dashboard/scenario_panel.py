@@ -101,6 +101,12 @@ class OpenScenario:
         self.folders = folders
         self.loaded: Loaded | None = None
         self.offered: str | None = None  # the choice naming what is loaded
+        self.saved_text: str | None = None  # the text as it was loaded or last saved
+
+    @property
+    def unsaved(self) -> bool:
+        """The page's edits differ from the file loaded (or last saved)."""
+        return self.loaded is not None and self.loaded.text != self.saved_text
 
     def offer(self) -> Offer:
         chosen = offer(self.folders, self.loaded.source if self.loaded else None)
@@ -116,6 +122,7 @@ class OpenScenario:
         if loaded.scenario is None:
             return Change(None, f"**Error:** {loaded.error}")
         self.loaded = loaded
+        self.saved_text = loaded.text
         return Change(loaded.scenario, "")
 
     def edit(self, edits: Edits) -> Change:
@@ -128,7 +135,10 @@ class OpenScenario:
         )  # fmt: skip
         if changed.text == self.loaded.text:
             return Change(None, None)
-        return self.take(changed)
+        if changed.scenario is None:
+            return Change(None, f"**Error:** {changed.error}")
+        self.loaded = changed  # the file as loaded stays `saved_text`
+        return Change(changed.scenario, "")
 
     def save(self, name: str) -> Saved | None:
         """The loaded text saved as `name` in the user's folder (None: nothing loaded).
@@ -142,6 +152,7 @@ class OpenScenario:
             return Saved(False, f"**Error:** {err}")
         except OSError as err:
             return Saved(False, f"**Error:** cannot save in your scenario folder: {err.strerror}")
+        self.saved_text = self.loaded.text
         return Saved(True, f"Saved as `{out.name}` in your scenario folder.")
 
 
@@ -175,6 +186,7 @@ class ScenarioPanel:
             self.open_button = gui.add_button("Open file")
             self.open_button.on_click(lambda _: self.open_named(self.path_text.value))
             self.error = gui.add_markdown("")
+            self.unsaved = gui.add_markdown("")
             self.safety = gui.add_dropdown("Safety", SAFETY)
             self.verbosity = gui.add_dropdown("Verbosity", VERBOSITY)
             self.safety.on_update(lambda _: self._edited())
@@ -219,8 +231,17 @@ class ScenarioPanel:
             finally:
                 self._showing = False
         self._rebuild_part_inputs(scenario)
+        self._mark_unsaved()
         self.stage.show_scenario(scenario)
         self.events.publish(ScenarioChanged(scenario))
+
+    def _mark_unsaved(self) -> None:
+        loaded = self.loaded
+        self.unsaved.content = (
+            f"✎ **Unsaved edits** of `{loaded.source}`: **Save** keeps them as a new file."
+            if loaded is not None and self.scenario.unsaved
+            else ""
+        )
 
     def _offer(self) -> None:
         """The offered name is recorded first and the value always stays among the
@@ -269,6 +290,7 @@ class ScenarioPanel:
         if change.error is not None:
             self.error.content = change.error
         if change.scenario is not None:
+            self._mark_unsaved()
             self.stage.show_scenario(change.scenario)
             self.events.publish(ScenarioChanged(change.scenario, edited=True))
 
@@ -279,6 +301,7 @@ class ScenarioPanel:
             return
         if saved.ok:
             self._offer()
+        self._mark_unsaved()
         self.error.content = saved.line
 
     def _lock(self, locked: bool) -> None:

@@ -1,0 +1,146 @@
+"""What the page shows is the state it has: loads reset, buttons say what can be
+done now, waits say what they wait for (real chromium, through the page)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+pytest.importorskip("playwright.sync_api")
+from playwright.sync_api import Browser, Page, expect  # noqa: E402
+
+from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
+from planner.resources import scenario_dir  # noqa: E402
+from tests.plan_fixtures import free_port  # noqa: E402
+from tests.test_dashboard import (  # noqa: E402
+    browser,  # noqa: F401  (the module's fixture)
+    field,
+    open_page,
+    plan_shown,
+    shot,
+    wait_for,
+)
+
+SHIPPED = scenario_dir()
+
+
+@pytest.fixture(scope="module")
+def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
+    data = tmp_path_factory.mktemp("data")
+    d = Dashboard("127.0.0.1", free_port(), "default.toml",
+                  DashboardSettings(workers=1, data_dir=str(data), load_models=False))  # fmt: skip
+    yield d
+    d.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
+    page = open_page(browser, dashboard, height=1000)
+    yield page
+    page.close()
+
+
+def choose(page: Page, label: str, option: str) -> None:
+    field(page, label).click()  # type: ignore[attr-defined]
+    page.get_by_role("option", name=option, exact=True).click()
+
+
+def test_loading_a_scenario_drops_the_edits_of_the_one_before(
+    page: Page, dashboard: Dashboard
+) -> None:
+    page.get_by_text("Parts", exact=True).first.click()  # a folder, closed at first
+    page.get_by_text("leg1 dangerous", exact=True).wait_for()
+    box = field(page, "leg1 dangerous")
+    box.check()  # type: ignore[attr-defined]
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.scenario is not None
+             and dashboard.loaded.scenario.part("leg1").dangerous, 20)  # fmt: skip
+    page.get_by_text("unsaved edits", exact=False).first.wait_for()  # the edit is marked
+    choose(page, "Scenario", "default-ko.toml")
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.source == "default-ko.toml")
+    expect(field(page, "leg1 dangerous")).not_to_be_checked()  # type: ignore[arg-type]
+    assert dashboard.loaded.scenario is not None
+    assert not dashboard.loaded.scenario.part("leg1").dangerous
+    assert page.get_by_text("unsaved edits", exact=False).count() == 0
+    field(page, "Save as").fill("copy-of-ko.toml")  # type: ignore[attr-defined]
+    page.get_by_role("button", name="Save", exact=True).click()
+    page.get_by_text("Saved as", exact=False).first.wait_for()
+    saved = dashboard.folders.user.path / "copy-of-ko.toml"
+    assert saved.read_text() == (SHIPPED / "default-ko.toml").read_text()
+    choose(page, "Scenario", "default.toml")
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.source == "default.toml")
+
+
+def test_loading_a_scenario_resets_plan_statistics_selection_and_log(
+    page: Page, dashboard: Dashboard
+) -> None:
+    page.get_by_role("button", name="Plan", exact=True).click()
+    wait_for(plan_shown(dashboard), 120)
+    page.get_by_text("meaning").wait_for()  # the statistics
+    dashboard.execution.speed.value = 0.0
+    page.get_by_role("button", name="Execute plan", exact=True).click()
+    wait_for(lambda: dashboard.execution.clicks is not None
+             and dashboard.execution.clicks.pending() is not None, 30)  # fmt: skip
+    page.get_by_role("button", name="Abort", exact=True).click()
+    execution = dashboard.execution
+    wait_for(lambda: not execution.running and not execution.start_button.disabled)
+    page.get_by_text("Ended: aborted", exact=False).first.wait_for()
+    choose(page, "Scenario", "default-ko.toml")
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.source == "default-ko.toml")
+    # Nothing of the other scenario's plan stays: no statistics, tree, selection, log.
+    page.get_by_text("Not planned yet", exact=False).first.wait_for()
+    assert page.get_by_text("meaning").count() == 0
+    assert page.locator("svg.tandem-tree").count() == 0
+    assert dashboard.selected is None and dashboard.plan is None
+    page.get_by_text("No plan yet", exact=False).first.wait_for()
+    assert page.get_by_text("The robot holds", exact=False).count() == 0
+    expect(page.get_by_role("button", name="Execute plan", exact=True)).to_be_disabled()
+    page.get_by_role("tab", name="Selected node").click()
+    page.get_by_text("Click a node of the plan tree", exact=False).first.wait_for()
+    page.get_by_role("tab", name="Plan tree").click()
+    shot(page, "state-after-load")
+    choose(page, "Scenario", "default.toml")
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.source == "default.toml")
+
+
+def test_buttons_and_waits_say_what_is_happening(page: Page, dashboard: Dashboard) -> None:
+    page.get_by_role("button", name="Plan", exact=True).click()
+    wait_for(plan_shown(dashboard), 120)
+    execution = dashboard.execution
+    execution.speed.value = 0.0
+    page.get_by_role("button", name="Execute plan", exact=True).click()
+    expect(page.get_by_role("button", name="Execute plan", exact=True)).to_be_disabled()
+    wait_for(lambda: execution.clicks is not None and execution.clicks.pending() is not None, 30)
+    offer = execution.clicks.pending() if execution.clicks else None
+    assert offer is not None
+    # The question waits: the tree and the selection show the asking node.
+    assert dashboard.selected == offer.node_id
+    assert dashboard.tree.marks.current == offer.node_id
+    page.get_by_text("waiting for an answer", exact=False).first.wait_for()
+    asking = page.locator(f'svg.tandem-tree [data-node="{offer.node_id}"] rect[stroke="#ff7f0e"]')
+    asking.wait_for()
+    # Pause shows that it is paused, and Resume goes on.
+    page.get_by_role("button", name="Pause", exact=True).click()
+    page.get_by_role("button", name="Resume", exact=True).wait_for()
+    page.get_by_text("Paused", exact=False).first.wait_for()
+    assert execution.executor is not None and execution.executor.paused
+    page.get_by_role("button", name="Resume", exact=True).click()
+    page.get_by_role("button", name="Pause", exact=True).wait_for()
+    assert not execution.executor.paused
+    page.get_by_role("button", name="Abort", exact=True).click()
+    wait_for(lambda: not execution.running)
+    expect(page.get_by_role("button", name="Execute plan", exact=True)).to_be_enabled()
+    expect(page.get_by_role("button", name="Pause", exact=True)).to_be_disabled()
+
+
+def test_the_page_says_preparing_before_the_first_step(page: Page, dashboard: Dashboard) -> None:
+    if not plan_shown(dashboard)():
+        page.get_by_role("button", name="Plan", exact=True).click()
+        wait_for(plan_shown(dashboard), 120)
+    execution = dashboard.execution
+    execution.start()  # as the button does: the line is set before preparing starts
+    assert str(execution.status.content).startswith("**Preparing the execution")
+    wait_for(lambda: execution.running, 30)
+    page.get_by_text("Running", exact=False).first.wait_for()
+    execution.executor.abort() if execution.executor else None
+    wait_for(lambda: not execution.running)
