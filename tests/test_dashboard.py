@@ -19,6 +19,7 @@ pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, expect, sync_playwright  # noqa: E402
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
+from app.dashboard.tree_svg import CURRENT, PATH  # noqa: E402
 from tests.plan_fixtures import free_port  # noqa: E402
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
@@ -211,6 +212,13 @@ def test_click_through_an_execution_then_review_it(page: Page, dashboard: Dashbo
             pass
         answered += 1
         wait_for(lambda o=offer: dashboard.execution.clicks.pending() != o or executor.done)
+        if answered == 1:
+            # Live on the tree: the answered node on the path taken (blue), marked
+            # with who answered; the branches not taken faded.
+            taken = page.locator(f'svg.tandem-tree [data-node="{offer.node_id}"]')
+            taken.locator(f'rect[stroke="{PATH}"]').wait_for()
+            expect(taken).to_contain_text("click")
+            assert page.locator('svg.tandem-tree g.node[opacity="0.4"]').count() > 0
     assert executor.result == "goal", executor.events
     clicked = [e for e in executor.events if e.outcome is not None]
     assert clicked and all(e.source == "click" for e in clicked)
@@ -232,5 +240,12 @@ def test_click_through_an_execution_then_review_it(page: Page, dashboard: Dashbo
         # races with the page echoing earlier values back).
         dashboard.review.show_step(k)
         replayed.append((dashboard.selected, dashboard.review.events[k].outcome))
+        assert dashboard.tree.marks.current == dashboard.selected
+        assert len(dashboard.tree.marks.path) == k + 1
     assert replayed == path
+    # The review's tree marks the step shown, as the execution did.
+    middle = len(path) // 2
+    dashboard.review.show_step(middle)
+    node = dashboard.review.events[middle].node
+    page.locator(f'svg.tandem-tree [data-node="{node}"] rect[stroke="{CURRENT}"]').wait_for()
     shot(page, "review")

@@ -16,7 +16,9 @@ import cv2
 import numpy as np
 import viser
 
+from app.dashboard.log_lines import sentence
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
+from app.dashboard.tree_svg import Step
 from app.execution.events import REPAIR, RESULTS, ExecutionEvent
 from app.sessions.database import StoreError
 from app.sessions.store import SessionRecord, SessionStore, UnknownSession, iso
@@ -152,17 +154,17 @@ class ReviewPanel:
             self.shown = self.plans[k]
             self.stage.show_plan(self.shown)
         self.stage.go_to(event.node)
+        # The tree marks the path to this step, as it did during the execution.
+        steps = tuple(Step(e.node, e.source, e.confidence) for e in self.events[: k + 1])
+        self.stage.show_path(steps, event.node)
         spoken = [
-            f"`{e.node}` {e.action or e.kind}"
-            + (f" → **{e.outcome}**" if e.outcome else "")
-            + (f": {e.text}" if e.text else "")
-            + (f" ({heard})" if (heard := summary(e)) else "")
-            for e in self.events[: k + 1]
+            sentence(e) + (f" *({heard})*" if (heard := summary(e)) else "")
+            for e in self.events[max(0, k - 7) : k + 1]
         ]
         s = self.session
         self.summary.content = "\n\n".join(
             [f"Session #{s.id} ({s.scenario}, {s.result}), step {k + 1}/{len(self.events)}"]
-            + spoken[-8:]
+            + spoken
         )
         self._show_frame(s.id, event)
 
