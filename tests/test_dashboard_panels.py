@@ -175,6 +175,9 @@ def test_the_growing_tree_is_redrawn_at_most_twice_a_second() -> None:
     assert not live.due(10.2) and not live.due(10.5)
     assert live.due(10.6)
     assert not live.due(10.7)
+    # A redraw that took 0.1 s waits 2 s (5 % of the time), not 0.5 s.
+    live.spent(0.1)
+    assert not live.due(12.5) and live.due(12.7)
 
 
 def test_the_statistics_table_has_every_column_of_the_plan_and_its_meaning() -> None:

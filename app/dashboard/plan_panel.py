@@ -33,6 +33,10 @@ from planner.scenario.model import Scenario
 HERE = "this machine"
 RAY = "a Ray cluster"
 LIVE_REDRAW_S = 0.5  # at most two redraws of the growing tree per second
+# A redraw of a large growing plan takes time from the planner (the GIL): at
+# most this share of the time planning goes to it (U10: ~0.1 s a redraw).
+LIVE_SHARE = 0.05
+STATUS_EVERY_S = 0.1  # the progress line, at most ten times a second
 
 
 @dataclass(frozen=True)
@@ -74,17 +78,25 @@ def plan_refused(executing: bool, planning: bool) -> bool:
 
 
 class LiveRedraw:
-    """When the growing tree is drawn again: at most once per `every_s`."""
+    """When the growing tree is drawn again: at most once per `every_s`, and
+    rarer as a redraw costs more (`spent`), so that redraws take no more than
+    `share` of the time."""
 
-    def __init__(self, every_s: float = LIVE_REDRAW_S) -> None:
+    def __init__(self, every_s: float = LIVE_REDRAW_S, share: float = LIVE_SHARE) -> None:
         self.every_s = every_s
+        self.share = share
+        self.cost = 0.0
         self.last = 0.0
 
     def due(self, now: float) -> bool:
-        if now - self.last <= self.every_s:
+        if now - self.last <= max(self.every_s, self.cost / self.share):
             return False
         self.last = now
         return True
+
+    def spent(self, seconds: float) -> None:
+        """What the last redraw took."""
+        self.cost = seconds
 
 
 class PlanPanel:
@@ -97,6 +109,7 @@ class PlanPanel:
         self.job: PlanningJob | None = None
         self.executing = False
         self._live = LiveRedraw()
+        self._status_tick = LiveRedraw(STATUS_EVERY_S)
         with gui.add_folder("Plan"):
             # Where branches are solved: this machine's processes, or Ray actors
             # (`tandem plan --cluster`); the address is kept while "this machine".
@@ -143,6 +156,7 @@ class PlanPanel:
         self.plan_button.disabled = True
         self.cancel_button.disabled = False
         self.stats.content = ""
+        self._live = LiveRedraw()
         self.stage.drop_plan()
         self.job = PlanningJob(
             scenario,
@@ -156,14 +170,19 @@ class PlanPanel:
     def _job_changed(self, status: JobStatus) -> None:
         """Each status of the job (its thread, or the caller's for the first)."""
         job = self.job
-        show(self.progress, progress_percent(status))
-        self.status.content = status_line(status)
         if status.state == "planning":
-            if job is not None and job.planner is not None and self._live.due(time.perf_counter()):
+            now = time.perf_counter()
+            if self._status_tick.due(now):
+                show(self.progress, progress_percent(status))
+                self.status.content = status_line(status)
+            if job is not None and job.planner is not None and self._live.due(now):
                 partial = partial_plan(job.planner, job.scenario)
                 if partial is not None:
                     self.stage.show_growing(partial)
+                self._live.spent(time.perf_counter() - now)
             return
+        show(self.progress, progress_percent(status))
+        self.status.content = status_line(status)
         self.plan_button.disabled = plan_refused(self.executing, planning=False)
         self.cancel_button.disabled = True
         # A plan of a scenario no longer loaded is never shown.

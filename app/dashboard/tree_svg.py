@@ -150,7 +150,8 @@ def _node_svg(plan: Plan, node_id: str, geo: Geometry, marks: TreeMarks,
     if node_id == marks.selected:
         parts.append(f'<rect x="{x - 4}" y="{y - 4}" width="{w + 8}" height="{BOX_PX + 8}" '
                      f'rx="7" fill="none" stroke="{SELECTED}" stroke-width="3"/>')  # fmt: skip
-    parts.append(f'<rect x="{x}" y="{y}" width="{w}" height="{BOX_PX}" rx="5" fill="{fill}" '
+    parts.append(f'<rect class="box" x="{x}" y="{y}" width="{w}" height="{BOX_PX}" rx="5" '
+                 f'fill="{fill}" '
                  f'stroke="{stroke}" stroke-width="{stroke_w}"{dash}/>')  # fmt: skip
     parts.append(f'<text class="label" x="{x + w / 2}" y="{y + 13}" text-anchor="middle" '
                  f'font-size="{FONT_PX}">{escape(label(node))}</text>')  # fmt: skip

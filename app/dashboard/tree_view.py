@@ -16,7 +16,6 @@ opens it.
 from __future__ import annotations
 
 import threading
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -28,7 +27,6 @@ from planner.plan.model import Plan
 
 VIEW_W, VIEW_H = 560.0, 520.0  # picture pixels shown at first (about the panel's size)
 BRIDGE = "tree:"  # what the hidden field's value starts with
-GROWING_EVERY_S = 0.5  # a plan being built is drawn at most this often
 
 # The picture's handlers, defined once per page (an image that fails to load runs them).
 _SCRIPT = (
@@ -100,13 +98,12 @@ class TreeView:
         self.marks = TreeMarks()
         self.view: tuple[float, float, float, float] = (0.0, 0.0, VIEW_W, VIEW_H)
         self.size = (VIEW_W, VIEW_H)  # the picture's element on the page, in pixels
-        self._drawn_at = 0.0
         self._found: list[str] = []
         # Planning, execution and clicks redraw from different threads.
         self._lock = threading.RLock()
         self.bridge: Any = gui.add_text("tree events", BRIDGE)
         self.bridge.on_update(lambda _: self._bridged(str(self.bridge.value)))
-        with gui.add_folder("Find and view", expand_by_default=False):
+        with gui.add_folder("Find, zoom, legend", expand_by_default=False):
             self.find_text: Any = gui.add_text("Find action or node", "")
             self.find_button = gui.add_button("Find next")
             self.find_button.on_click(lambda _: self.find(str(self.find_text.value)))
@@ -150,8 +147,8 @@ class TreeView:
 
     def show(self, plan: Plan, *, keep_collapsed: bool = False) -> None:
         """Draw `plan`; a new plan gets the default folding (expected branch open)
-        and a view on its root. A plan being built is drawn at most every
-        `GROWING_EVERY_S` (its last state is drawn when it is complete)."""
+        and a view on its root (the plan panel says how often a growing plan is
+        drawn)."""
         with self._lock:
             first = self.plan is None or self.plan.root != plan.root or not keep_collapsed
             self.plan = plan
@@ -159,10 +156,6 @@ class TreeView:
             if not keep_collapsed:
                 self.collapsed = self.tree.default_collapsed(plan)
                 self.marks = TreeMarks()
-            now = time.monotonic()
-            if plan.partial and now - self._drawn_at < GROWING_EVERY_S:
-                return
-            self._drawn_at = now
             self._layout()
             if first:
                 self.zoom("Root")
