@@ -3,7 +3,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test bench lint system
+.PHONY: run test bench lint system screenshots
 
 # The dashboard soak in `make bench`: 5 pages for this long.
 SOAK_MINUTES ?= 10
@@ -32,11 +32,17 @@ bench: $(STAMP) system
 	$(BIN)/tandem bench
 	$(BIN)/python -m app.benchmark.scaling
 	$(BIN)/python -m app.benchmark.dashboard_benchmark
+	$(BIN)/python -m app.benchmark.page_speed
+	$(BIN)/python -m app.benchmark.screenshots
 	$(BIN)/python -m app.benchmark.diagnosis_benchmark
 	$(BIN)/python -m perception.bench
 	$(BIN)/python -m app.benchmark.camera_benchmark
 	$(BIN)/python -m speech.bench
 	$(BIN)/python -m app.benchmark.soak --pages 5 --minutes $(SOAK_MINUTES)
+
+# The dashboard's screenshots (docs/screenshots), taken in headless chromium.
+screenshots: $(STAMP) system
+	$(BIN)/python -m app.benchmark.screenshots
 
 lint: $(STAMP)
 	$(BIN)/ruff check planner app perception speech tests

@@ -128,6 +128,7 @@ def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Das
     wait_for(plan_shown(dashboard))
     assert dashboard.tree.current is not None and len(dashboard.tree.current.positions) >= 10
     assert dashboard.plan is not None and dashboard.selected == dashboard.plan.root
+    page.get_by_text("Statistics", exact=True).first.click()  # a folder, closed at first
     page.get_by_text("meaning").wait_for()  # the statistics, with their legend
     page.locator(f'svg.tandem-tree [data-node="{dashboard.plan.root}"]').wait_for()
     time.sleep(2.0)
@@ -228,7 +229,7 @@ def test_click_through_an_execution_then_review_it(page: Page, dashboard: Dashbo
     path = dashboard.store.path(session_id)
     assert dashboard.plan is not None and is_plan_path(dashboard.plan, path)
     # The session is in the review list and replays the same path.
-    page.get_by_text("Review sessions").click()
+    page.get_by_role("tab", name="Review").click()
     page.get_by_role("button", name="Refresh list", exact=True).click()
     label = next(k for k, v in dashboard.review._ids.items() if v == session_id)
     page.get_by_role("button", name="Open session", exact=True).click()

@@ -124,6 +124,7 @@ def execute_clicking_first(page: Page, dashboard: Dashboard) -> Executor:
     """Executes the shown plan from the page, clicking each question's first answer."""
     dashboard.execution.speed.value = 0.0
     wait_for(lambda: not dashboard.execution.start_button.disabled)
+    page.get_by_role("tab", name="Execution").click()  # a review may stand in front
     page.get_by_role("button", name="Execute plan", exact=True).click()
     wait_for(lambda: dashboard.execution.executor is not None and dashboard.execution.running)
     executor = dashboard.execution.executor
@@ -163,7 +164,7 @@ def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> No
     assert all(e.source == "click" for e in questions)
     page.get_by_text("(by the camera,", exact=False).first.wait_for()
     # The review shows the deciding frame beside a camera answer.
-    page.get_by_text("Review sessions").click()
+    page.get_by_role("tab", name="Review").click()
     page.get_by_role("button", name="Refresh list", exact=True).click()
     page.get_by_role("button", name="Open session", exact=True).click()
     wait_for(lambda: dashboard.review.opened == session_id)
@@ -173,6 +174,7 @@ def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> No
     wait_for(lambda: 320 in image_widths(page), 30)
     page.get_by_text("answered by the camera:", exact=False).first.wait_for()
     shot(page, "camera-review")
+    page.get_by_role("tab", name="Execution").click()
 
 
 def test_a_surprise_the_live_camera_sees_is_repaired(page: Page, dashboard: Dashboard) -> None:

@@ -93,10 +93,11 @@ def test_one_operator_many_observers_then_sigterm(browser: Browser, running: Run
     expect(observer.get_by_role("button", name=question, exact=True)).to_be_visible(timeout=60_000)
     # Locked for everyone while it runs: nobody replaces the plan under the robot.
     observer.bring_to_front()
-    observer.get_by_text("Review sessions").click()  # a folder, closed at first
+    observer.get_by_role("tab", name="Review").click()  # behind the Execution tab
     for page, names in ((operator, ()), (observer, ("Open session", "Replay"))):
         for name in ("Plan", "Open file", "Save", *names):
             expect(page.get_by_role("button", name=name, exact=True)).to_be_disabled()
+    observer.get_by_role("tab", name="Execution").click()
     # The observer's answer, pause and abort are refused on its page only, each
     # saying what it could not do; the notices then close by themselves.
     for name, what in (

@@ -76,6 +76,7 @@ def test_loading_a_scenario_resets_plan_statistics_selection_and_log(
 ) -> None:
     page.get_by_role("button", name="Plan", exact=True).click()
     wait_for(plan_shown(dashboard), 120)
+    page.get_by_text("Statistics", exact=True).first.click()  # a folder, closed at first
     page.get_by_text("meaning").wait_for()  # the statistics
     dashboard.execution.speed.value = 0.0
     page.get_by_role("button", name="Execute plan", exact=True).click()

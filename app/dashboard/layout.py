@@ -1,9 +1,10 @@
 """Where the dashboard's panels stand: four docked panels around the bench.
 
 Left, the main panel (the guide, then what a user does in order: scenario,
-plan, view, speech, review) above the camera panel; right, the plan tree
-(tabs: the tree, the selected node) above the execution panel (controls,
-the simulated human, the timeline, the log). The bench's 3D view fills the
+plan, view, speech) above the camera panel; right, the plan tree (tabs: the
+tree, the selected node) above the execution panel (tabs: the execution's
+controls, the simulated human, the timeline and the log; the review of
+stored sessions). The bench's 3D view fills the
 middle. Every panel can be minimised, dragged out to float, or docked
 elsewhere by the user; the camera panel's "Enlarge" floats it at the
 frame's own size.
@@ -46,6 +47,7 @@ class Layout:
         self.tree_panel.set_width(RIGHT_PX)
         self.execution_panel = gui.add_panel()
         self.execution_tab: Any = self.execution_panel.add_tab("Execution")
+        self.review_tab: Any = self.execution_panel.add_tab("Review")
         self.execution_panel.dock_below(self.tree_panel)
         self.camera_panel = gui.add_panel()
         self.camera_tab: Any = self.camera_panel.add_tab("Camera")

@@ -134,7 +134,8 @@ class PlanPanel:
             self.cancel_button.on_click(lambda _: self.job.cancel() if self.job else None)
             self.progress = gui.add_progress_bar(0.0)
             self.status = gui.add_markdown("Not planned yet.")
-            self.stats = gui.add_html("")
+            with gui.add_folder("Statistics", expand_by_default=False):
+                self.stats = gui.add_html("")
         events.subscribe(ScenarioChanged, self._scenario_changed)
         events.subscribe(PlanChanged, self._plan_changed)
         events.subscribe(ExecutionStarted, lambda _: self._lock(True))

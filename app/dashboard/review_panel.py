@@ -47,7 +47,7 @@ class ReviewPanel:
         self.opened: int | None = None  # set once a session is fully on screen
         self.plans: list[Plan] = []  # the plan of each event (repairs change it)
         self.shown: Plan | None = None
-        with gui.add_folder("Review sessions", expand_by_default=False):
+        with gui.add_folder("Review sessions"):
             self.scenario_filter: Any = gui.add_text("Scenario", "")
             self.result_filter: Any = gui.add_dropdown("Result", FILTERS)
             self.since_filter: Any = gui.add_text("Since (YYYY-MM-DD)", "")

@@ -115,7 +115,8 @@ class Dashboard:
             )
         if self.store.read_only is not None:
             self.execution.refuse_executions(self.store.read_only)
-        self.review = ReviewPanel(gui, screen, events, self.store)
+        with panels.review_tab:
+            self.review = ReviewPanel(gui, screen, events, self.store)
         with panels.camera_tab:
             self.camera_panel = CameraPanel(
                 gui, screen, events, self.operator, data / RECORDINGS_FOLDER,

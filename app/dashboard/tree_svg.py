@@ -123,7 +123,9 @@ def geometry(plan: Plan, layout: TreeLayout) -> Geometry:
 def _answer_words(step: Step | None) -> str:
     if step is None or step.source is None:
         return ""
-    sure = f" {step.confidence:.2f}" if step.confidence is not None else ""
+    sure = ""
+    if step.confidence is not None and step.source != "click":  # a click is sure
+        sure = f" {step.confidence:.2f}"
     return f" · {step.source}{sure}"
 
 
