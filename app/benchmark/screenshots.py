@@ -49,7 +49,8 @@ def answer(dashboard: Dashboard, page: Any, questions: int | None) -> None:
             time.sleep(0.05)
             continue
         page.get_by_role("button", name=offer.words[0], exact=True).first.click()
-        wait_for(lambda o=offer: execution.clicks is None or execution.clicks.pending() != o)
+        clicks = execution.clicks
+        wait_for(lambda: clicks is None or clicks.pending() != offer)  # noqa: B023 (waited here)
         answered += 1
 
 
