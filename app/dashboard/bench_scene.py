@@ -38,7 +38,30 @@ PART_COLOURS = {"top": (170, 120, 70), "leg": (200, 160, 110), "foot": (110, 110
 DANGER = (220, 50, 50)
 HELD_TINT = (255, 140, 0)
 HUMAN_X = 1.85  # the human stands past the far end of the bench, facing the robot
+# The drawn human's hands as the model stands (read off its URDF at rest, in
+# bench coordinates): a part the human holds is drawn in one, just in front.
+HUMAN_HANDS = ((HUMAN_X - 0.06, 0.21, -0.17), (HUMAN_X - 0.06, -0.21, -0.17))
 PREFIX = "/bench"
+LABEL_GAP = 0.05  # m between stacked labels
+LABEL_NEAR = 0.16  # m: labels closer than this on the bench would overlap
+
+
+Point3 = tuple[float, float, float]
+
+
+def stacked(anchors: dict[str, Point3]) -> dict[str, Point3]:
+    """Label positions where no two overlap, seen from above or from the side:
+    a label near one placed before it (closer than `LABEL_NEAR` along the
+    bench and `LABEL_GAP` across it) moves across the bench, towards the
+    "Bench" camera (-y), and up, by `LABEL_GAP` until it is clear. Pure."""
+    placed: dict[str, Point3] = {}
+    for pid in sorted(anchors, key=lambda p: (anchors[p][2], p)):
+        x, y, z = anchors[pid]
+        while any(abs(x - px) < LABEL_NEAR and abs(y - py) < LABEL_GAP
+                  for px, py, _ in placed.values()):  # fmt: skip
+            y, z = y - LABEL_GAP, z + LABEL_GAP / 2
+        placed[pid] = (x, y, z)
+    return placed
 
 
 def _yaw_quat(yaw: float) -> tuple[float, float, float, float]:
@@ -108,7 +131,7 @@ class BenchScene:
                 position=((x_lo + x_hi) / 2, 0.0, BENCH_TOP_Z - BENCH_THICKNESS / 2 - 0.002),
             )
         )
-        for region in scenario.regions:
+        for index, region in enumerate(scenario.regions):
             lo, hi = extents[region.id]
             colour = REGION_COLOURS.get(region.id, OTHER_REGION)
             self._static.append(
@@ -124,7 +147,9 @@ class BenchScene:
                 scene.add_label(
                     f"{PREFIX}/region_labels/{region.id}",
                     f"{region.id} ({reach})",
-                    position=((lo + hi) / 2, -BENCH_HALF_WIDTH + 0.05, BENCH_TOP_Z + 0.01),
+                    # Staggered across the bench: side by side they would overlap.
+                    position=((lo + hi) / 2, -BENCH_HALF_WIDTH + 0.05 + 0.09 * (index % 2),
+                              BENCH_TOP_Z + 0.01),
                 )
             )
         for pid, box in self.boxes.items():
@@ -137,26 +162,34 @@ class BenchScene:
                 position=(box.x, box.y, BENCH_TOP_Z + box.size[2] / 2),
                 wxyz=_yaw_quat(box.yaw),
             )
+        anchors = {pid: (box.x, box.y, BENCH_TOP_Z + box.size[2] + 0.03)
+                   for pid, box in self.boxes.items()}  # fmt: skip
+        for pid, where in stacked(anchors).items():
+            part = scenario.part(pid)
             marker = f" #{part.marker}" if part.marker is not None else ""
             danger = " (dangerous)" if part.dangerous else ""
             self._label_handles[pid] = scene.add_label(
-                f"{PREFIX}/labels/{pid}",
-                f"{pid}{marker}{danger}",
-                position=(box.x, box.y, BENCH_TOP_Z + box.size[2] + 0.03),
+                f"{PREFIX}/labels/{pid}", f"{pid}{marker}{danger}", position=where
             )
 
     def show(self, world: WorldView) -> None:
+        anchors: dict[str, Point3] = {}
+        hands = iter(HUMAN_HANDS)
         for pid, placement in world.parts.items():
             handle = self._part_handles.get(pid)
             if handle is None:
                 continue
-            handle.position = (placement.x, placement.y, placement.z)
-            label = self._label_handles[pid]
+            where = (placement.x, placement.y, placement.z)
+            if placement.holder == "human":
+                where = next(hands, where)  # in the drawn human's hand
+            handle.position = where
+            anchors[pid] = (where[0], where[1], where[2] + 0.06)
             suffix = f" held by {placement.holder}" if placement.holder else ""
             if placement.attached_to:
                 suffix = f" on {placement.attached_to}" + suffix
-            label.position = (placement.x, placement.y, placement.z + 0.06)
-            label.text = f"{pid}{suffix}"
+            self._label_handles[pid].text = f"{pid}{suffix}"
+        for pid, position in stacked(anchors).items():
+            self._label_handles[pid].position = position
         self.show_arms(world.arms)
 
     def show_arms(self, arms: dict[str, list[float]]) -> None:

@@ -14,9 +14,12 @@ from app.dashboard.stage import Events, Stage
 Point = tuple[float, float, float]
 Pose = tuple[Point, Point]  # the camera's position, and the point it looks at
 CAMERAS: dict[str, Pose] = {
-    "Bench": ((2.6, -1.5, 0.9), (0.7, 0.0, -0.2)),
-    "Robot view": ((-0.4, 0.0, 0.6), (1.0, 0.0, -0.3)),
-    "Human view": ((2.2, 0.0, 0.5), (0.6, 0.0, -0.2)),
+    # Robot, bench and human in the middle of the page, between the side panels.
+    "Bench": ((2.75, -1.85, 1.05), (0.95, 0.0, -0.2)),
+    # Just above and in front of Baxter's head screen, looking down the bench.
+    "Robot view": ((0.3, 0.0, 0.95), (1.1, 0.0, -0.2)),
+    # Above the human's head (at x 1.85, z 0.54), looking over the bench.
+    "Human view": ((2.3, 0.35, 1.25), (0.7, 0.0, -0.15)),
     "Top": ((0.85, -0.01, 2.6), (0.85, 0.0, -0.05)),
 }
 VIEWS = tuple(CAMERAS)
