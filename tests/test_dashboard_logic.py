@@ -195,7 +195,7 @@ def test_opening_a_scenario_is_no_edit_of_it(tmp_path: Path) -> None:
         )
         panel.safety.value = "strict"  # as a page does
         assert heard == [("paper-base", True)]
-        assert dashboard.plan_panel.status.content == "Scenario changed: plan again."
+        assert dashboard.plan_panel.status.content == "Scenario changed: not planned yet, press **Plan**."
         # Opening another scenario sets "Safety" back to "normal": one change, the
         # opening, with the new scenario's parts as its file says.
         dashboard.open_named("declared.toml")
