@@ -11,9 +11,15 @@ Modules:
 - `audio`: `Recording`, WAV reading and writing, resampling, RMS level.
 - `voice_activity`: the energy gate that tells speech from silence and noise, and
   `EndOfSpeech`, where a live utterance ends (the microphone's cut).
-- `models`: `find_model(language)`, `load_model(dir)` (once per process).
+- `models`: `choose_model(language)`: which engine hears it (vosk where a vosk
+  model is given and for Korean, pocketsphinx for English); `find_model`,
+  `load_model(dir)` (a vosk model, once per process).
 - `recognition`: `Recognizer.recognize(samples, rate) -> Heard` (yes / no /
-  refused with a reason) and the rejection strategy in its docstring.
+  refused with a reason), the same calls whichever engine hears; `heard`:
+  `Heard`, `Meaning`, `Reason`.
+- `vosk_recognition`, `sphinx`: the two engines, each with its rejection
+  strategy in its docstring (vosk: Korean; pocketsphinx: English, its model
+  installed with the wheel).
 - `sources`: the `AudioSource` protocol: `MicrophoneSource`,
   `WavFolderSource`, `SimulatedVoice`.
 - `evaluation`: the synthetic test set and its score; `bench`: the benchmark.
@@ -21,6 +27,8 @@ Modules:
 Flow:
     text -> synthesize -> Utterance (WAV/MP3 file) -> play_local or the page
     AudioSource.listen -> Recording -> Recognizer.recognize
-        -> energy gate -> answers grammar (+ n-best margin)
-        -> distractor grammar -> Heard(words, confidence, meaning, reason)
+        vosk:         energy gate -> answers grammar (+ n-best margin)
+                      -> distractor grammar -> Heard(words, confidence, meaning, reason)
+        pocketsphinx: energy gate -> answers grammar -> word score
+                      -> phone loop -> coverage -> Heard(...)
 """

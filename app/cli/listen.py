@@ -1,8 +1,10 @@
 """`tandem listen`: one answer from the microphone (or a WAV file), and what was heard.
 
 Prints the words, their confidence and the meaning taken, or why the answer
-was refused. Exit 0 when an answer was taken, 1 when it was refused, 2 when
-there is no model, no microphone or no such file.
+was refused. English is heard by pocketsphinx (its model installs with the
+project), Korean by vosk; `--vosk-model` makes vosk hear any language. Exit 0
+when an answer was taken, 1 when it was refused, 2 when there is no model, no
+microphone or no such file.
 """
 
 from __future__ import annotations
@@ -27,8 +29,13 @@ def register(parser: argparse.ArgumentParser) -> None:
         help="the yes word(s) and the no word(s), a comma between the two and + between "
         "alternatives (default: the language's answer words)",
     )
-    parser.add_argument("--language", choices=sorted(LANGUAGES), default="ko")
-    parser.add_argument("--vosk-model", metavar="DIR", help="the vosk model directory")
+    parser.add_argument("--language", choices=sorted(LANGUAGES), default="en-us")
+    parser.add_argument(
+        "--vosk-model",
+        metavar="DIR",
+        help="a vosk model directory (default: pocketsphinx's bundled model for English, "
+        "the packaged vosk model for Korean)",
+    )
     parser.add_argument(
         "--timeout", type=float, default=8.0, help="seconds to wait for speech (default 8)"
     )

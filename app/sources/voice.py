@@ -4,11 +4,12 @@
 offerHelp, confirmAttach). At such a node it speaks the node's sentence
 (`speech.synthesis.synthesize`), listens on an `AudioSource` (microphone, WAV
 files, or the simulated voice) and hands the audio to a closed-grammar
-`Recognizer`. A refused result (silence, low confidence, out of grammar,
-ambiguous) makes it ask once more; a second refusal is "no answer" (None), so
-a `FallbackSource` takes the answer from clicks (or, headless, from a random
-or expected choice). A misheard answer would send the plan down the wrong
-branch, so only what the recogniser accepted ever becomes an outcome.
+`Recognizer` (vosk or pocketsphinx, whichever hears the language). A refused
+result (silence, low confidence, out of grammar, ambiguous) makes it ask once
+more; a second refusal is "no answer" (None), so a `FallbackSource` takes the
+answer from clicks (or, headless, from a random or expected choice). A misheard
+answer would send the plan down the wrong branch, so only what the recogniser
+accepted ever becomes an outcome.
 
 Every attempt is kept per node (`attempts`), with the words heard, the
 confidence and why it was refused, so a session can say whether an answer
@@ -234,7 +235,7 @@ class VoiceSource:
                 for a in tried
             ),
             engine=spoken[-1].engine if spoken else "none",
-            recognizer=f"vosk ({self.language.code}, closed grammar)",
+            recognizer=self.recognizer.description,
         )
         truth = self.truth(node_id) if self.truth is not None else None
         return Evidence(voice=hearing, truth=truth)
