@@ -195,7 +195,8 @@ def test_opening_a_scenario_is_no_edit_of_it(tmp_path: Path) -> None:
         )
         panel.safety.value = "strict"  # as a page does
         assert heard == [("paper-base", True)]
-        assert dashboard.plan_panel.status.content == "Scenario changed: not planned yet, press **Plan**."
+        changed = "Scenario changed: not planned yet, press **Plan**."
+        assert dashboard.plan_panel.status.content == changed
         # Opening another scenario sets "Safety" back to "normal": one change, the
         # opening, with the new scenario's parts as its file says.
         dashboard.open_named("declared.toml")
@@ -205,3 +206,24 @@ def test_opening_a_scenario_is_no_edit_of_it(tmp_path: Path) -> None:
         assert dashboard.plan_panel.status.content.startswith("Scenario **paper-base-declared**")
     finally:
         dashboard.close()
+
+
+def test_one_label_per_assembly_and_none_overlapping() -> None:
+    from app.dashboard.bench_scene import LABEL_GAP, LABEL_NEAR, label_words, stacked
+    from app.execution.world import Placement
+
+    parts = {
+        "top": Placement(1.0, 0.0, 0.0),
+        "leg1": Placement(0.9, 0.1, 0.1, attached_to="top"),
+        "foot1": Placement(0.9, 0.1, 0.3, holder="left", attached_to="leg1"),
+        "leg2": Placement(1.6, 0.2, 0.2, holder="human"),
+        "foot2": Placement(0.5, -0.3, 0.0),
+    }
+    assert label_words(parts) == {
+        "top": "top + foot1, leg1", "leg2": "leg2 (held by human)", "foot2": "foot2"
+    }
+    crowded = {f"p{i}": (1.0 + 0.02 * i, 0.0, 0.0) for i in range(6)}
+    placed = list(stacked(crowded).values())
+    for i, (x1, y1, _) in enumerate(placed):
+        for x2, y2, _ in placed[i + 1:]:
+            assert abs(x1 - x2) >= LABEL_NEAR or abs(y1 - y2) >= LABEL_GAP - 1e-9

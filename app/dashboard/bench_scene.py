@@ -7,6 +7,7 @@ bench away from the robot, z up, 0 at Baxter's base frame (~0.93 m above the flo
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 import viser
@@ -14,7 +15,7 @@ import yourdfpy
 from viser.extras import ViserUrdf
 
 from app.dashboard.mesh_detail import DEFAULT_DETAIL, reduce_detail
-from app.execution.world import WorldView
+from app.execution.world import Placement, WorldView
 from planner.feasibility.arms import ARMS, HOME, JOINT_SUFFIXES
 from planner.feasibility.robot import baxter_urdf, human_urdf
 from planner.feasibility.scene import (
@@ -42,7 +43,7 @@ HUMAN_X = 1.85  # the human stands past the far end of the bench, facing the rob
 # bench coordinates): a part the human holds is drawn in one, just in front.
 HUMAN_HANDS = ((HUMAN_X - 0.06, 0.21, -0.17), (HUMAN_X - 0.06, -0.21, -0.17))
 PREFIX = "/bench"
-LABEL_GAP = 0.05  # m between stacked labels
+LABEL_GAP = 0.07  # m between stacked labels
 LABEL_NEAR = 0.16  # m: labels closer than this on the bench would overlap
 
 
@@ -66,6 +67,32 @@ def stacked(anchors: dict[str, Point3]) -> dict[str, Point3]:
 
 def _yaw_quat(yaw: float) -> tuple[float, float, float, float]:
     return (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+
+
+def label_words(parts: Mapping[str, Placement]) -> dict[str, str]:
+    """One label per assembly, on the part the others are attached to ("top +
+    leg1, foot1"), and one per loose part, saying who holds it: labels of parts
+    attached together would stand on top of each other."""
+    def root(pid: str) -> str:
+        seen = {pid}
+        while (onto := parts[pid].attached_to) is not None and onto in parts and onto not in seen:
+            pid = onto
+            seen.add(pid)
+        return pid
+
+    members: dict[str, list[str]] = {}
+    for pid in parts:
+        if parts[pid].attached_to is not None:
+            members.setdefault(root(pid), []).append(pid)
+    words = {}
+    for pid, placement in parts.items():
+        if placement.attached_to is not None:
+            continue
+        text = pid + (f" + {', '.join(sorted(members[pid]))}" if pid in members else "")
+        if placement.holder is not None:
+            text += f" (held by {placement.holder})"
+        words[pid] = text
+    return words
 
 
 class BenchScene:
@@ -175,6 +202,7 @@ class BenchScene:
     def show(self, world: WorldView) -> None:
         anchors: dict[str, Point3] = {}
         hands = iter(HUMAN_HANDS)
+        words = label_words(world.parts)
         for pid, placement in world.parts.items():
             handle = self._part_handles.get(pid)
             if handle is None:
@@ -183,11 +211,11 @@ class BenchScene:
             if placement.holder == "human":
                 where = next(hands, where)  # in the drawn human's hand
             handle.position = where
-            anchors[pid] = (where[0], where[1], where[2] + 0.06)
-            suffix = f" held by {placement.holder}" if placement.holder else ""
-            if placement.attached_to:
-                suffix = f" on {placement.attached_to}" + suffix
-            self._label_handles[pid].text = f"{pid}{suffix}"
+            label = self._label_handles[pid]
+            label.visible = pid in words
+            if pid in words:
+                label.text = words[pid]
+                anchors[pid] = (where[0], where[1], where[2] + 0.06)
         for pid, position in stacked(anchors).items():
             self._label_handles[pid].position = position
         self.show_arms(world.arms)
