@@ -9,7 +9,7 @@ middle. Every panel can be minimised, dragged out to float, or docked
 elsewhere by the user; the camera panel's "Enlarge" floats it at the
 frame's own size.
 
-Widths are chosen for 1600×1000 and still leave the bench 480 px at
+Widths are chosen for 1600×1000 and still leave the bench 460 px at
 1280×800 (measured in headless Chromium, see the README's screenshots).
 """
 
@@ -19,8 +19,8 @@ from typing import Any
 
 import viser
 
-LEFT_PX = 340.0
-RIGHT_PX = 540.0
+LEFT_PX = 320.0
+RIGHT_PX = 500.0
 CAMERA_FLOAT_PX = 680.0  # the camera's 640 px frame, with the panel's margins
 
 GUIDE = (
