@@ -8,6 +8,10 @@
   optional white noise), and `listen()` hands that recording over, so the
   whole dialogue runs through the real recogniser without hardware.
 
+A dialogue that listens all the time (`speech.dialogue.Ear`) reads a
+`BlockStream` instead: `SimulatedRoom` is the simulated one, a stream in real
+time where the human's words and the robot's own voice (its echo) overlap.
+
 Each keeps `level`, the RMS (0..1) of the last audio it produced, for the
 dashboard's input-level indicator.
 """
@@ -15,18 +19,21 @@ dashboard's input-level indicator.
 from __future__ import annotations
 
 import random
+import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from speech.audio import BLOCK, RATE, Recording, Samples, as_int16, read_wav, resample, rms
 from speech.devices import microphone, require_device
 from speech.languages import Language, language
 from speech.synthesis import espeak_samples
-from speech.voice_activity import EndOfSpeech, LiveUtterance
+from speech.voice_activity import FRAME_S, EndOfSpeech, LiveUtterance, activity
 
 
 class AudioSource(Protocol):
@@ -64,12 +71,124 @@ class WavFolderSource:
         return recording
 
 
+class BlockStream(Protocol):
+    """Live 16 kHz audio, one block at a time, as it is recorded (a dialogue's ear)."""
+
+    @property
+    def position_s(self) -> float:
+        """Stream time at the end of the last block read."""
+        ...
+
+    def read(self) -> Samples:
+        """The next block (`BLOCK` samples), waiting until it has been recorded."""
+        ...
+
+
+@dataclass(frozen=True)
+class Span:
+    """Where a sound is in a room's stream: all of it, and its loud part (the words)."""
+
+    start_s: float
+    end_s: float
+    speech_start_s: float
+    speech_end_s: float
+
+
+class SimulatedRoom:
+    """The air around a simulated microphone, recorded block by block in real time.
+
+    Sounds are `play`ed at stream times and mixed with a faint white noise
+    (`noise_db` dBFS, so the microphone has a noise floor); `read` hands out the
+    next 30 ms block once the clock has reached its end, as a microphone
+    would. The robot's own voice comes back through its speakers
+    (`play_robot`): 50 ms after it is played, attenuated by `echo_gain`, after a
+    direct path of 1 ms and one reflection, and one sentence after the other.
+    """
+
+    def __init__(self, seed: int | None = None, noise_db: float = -60.0, echo_gain: float = 0.5):
+        self._lock = threading.Lock()
+        self._sounds: list[tuple[int, npt.NDArray[np.float64], bool]] = []  # start, audio, robot
+        self._noise = np.random.default_rng(seed)
+        self._sigma = 32768.0 * 10 ** (noise_db / 20)
+        self._echo = np.zeros(32)
+        self._echo[16], self._echo[28] = echo_gain, 0.3 * echo_gain
+        self._start = time.monotonic()
+        self._read = 0  # samples handed out
+        self.robot_until_s = 0.0  # when the robot's last sentence ends
+        self.level = 0.0
+
+    def now_s(self) -> float:
+        return time.monotonic() - self._start
+
+    @property
+    def position_s(self) -> float:
+        return self._read / RATE
+
+    def play(self, samples: Samples, at_s: float | None = None) -> Span:
+        """`samples` heard from stream time `at_s` (default now); where they are."""
+        return self._add(samples.astype(np.float64), self.now_s() if at_s is None else at_s)
+
+    def play_robot(self, samples: Samples) -> Span:
+        """The robot's speakers: its sentence, after the one it is saying, as the
+        microphone hears it (the room's echo path)."""
+        with self._lock:
+            # 50 ms of output latency, as a sound card has: who plays it learns where
+            # it is before the microphone hears it.
+            at = max(self.now_s() + 0.05, self.robot_until_s)
+        heard = np.convolve(samples.astype(np.float64), self._echo)
+        span = self._add(heard, at, robot=True)
+        with self._lock:
+            self.robot_until_s = span.end_s
+        return span
+
+    def cut_robot(self) -> None:
+        """The robot falls silent now (what it had left to say is not heard)."""
+        with self._lock:
+            cut = int(self.now_s() * RATE)
+            self._sounds = [
+                (start, audio[: max(0, cut - start)] if robot else audio, robot)
+                for start, audio, robot in self._sounds
+            ]
+            self.robot_until_s = min(self.robot_until_s, cut / RATE)
+
+    def _add(self, audio: npt.NDArray[np.float64], at_s: float, robot: bool = False) -> Span:
+        start = int(round(at_s * RATE))
+        loud = activity(np.clip(audio, -32768, 32767).astype(np.int16), RATE)
+        frames = np.flatnonzero(loud.active)
+        first, last = (frames[0], frames[-1] + 1) if frames.size else (0, 0)
+        with self._lock:
+            self._sounds.append((start, audio, robot))
+        return Span(
+            start / RATE, (start + len(audio)) / RATE,
+            start / RATE + first * FRAME_S, start / RATE + last * FRAME_S,
+        )  # fmt: skip
+
+    def read(self) -> Samples:
+        end = self._read + BLOCK
+        wait = end / RATE - self.now_s()
+        if wait > 0:
+            time.sleep(wait)
+        mixed = self._noise.normal(0.0, self._sigma, BLOCK)
+        with self._lock:
+            self._sounds = [s for s in self._sounds if s[0] + len(s[1]) > self._read]
+            for start, audio, _ in self._sounds:
+                lo, hi = max(start, self._read), min(start + len(audio), end)
+                if lo < hi:
+                    mixed[lo - self._read : hi - self._read] += audio[lo - start : hi - start]
+        self._read = end
+        block: Samples = np.clip(np.round(mixed), -32768, 32767).astype(np.int16)
+        self.level = rms(block)
+        return block
+
+
 class SimulatedVoice:
     """A simulated human who speaks its answers with espeak-ng.
 
     Seeded, each `say` draws a voice variant, a speed and a pitch, so
     answers differ the way speakers do; `noise_snr_db` adds white noise at
-    that signal-to-noise ratio (None: clean).
+    that signal-to-noise ratio (None: clean). With a `room` (a live simulated
+    microphone) the words are also spoken into the room, where they overlap
+    whatever else is heard there.
     """
 
     def __init__(
@@ -78,10 +197,15 @@ class SimulatedVoice:
         seed: int | None = None,
         noise_snr_db: float | None = None,
         pause_s: float = 0.3,
+        room: SimulatedRoom | None = None,
+        reaction_s: float = 0.4,
     ) -> None:
         self.language = (
             language_code if isinstance(language_code, Language) else language(language_code)
         )
+        self.room = room
+        self.reaction_s = reaction_s
+        self.spoken_at: Span | None = None  # where the last words are in the room
         self._random = random.Random(seed) if seed is not None else None
         self._noise = np.random.default_rng(seed)
         self.noise_snr_db = noise_snr_db
@@ -109,9 +233,22 @@ class SimulatedVoice:
         return Recording(samples=samples, rate=RATE, origin=origin)
 
     def say(self, answer_text: str) -> Recording:
-        """Speak `answer_text`; the next `listen()` returns it."""
+        """Speak `answer_text`; the next `listen()` returns it. In a `room`, the words
+        are also spoken into it, `reaction_s` after the robot has fallen silent."""
         self._pending = self.render(answer_text)
+        if self.room is not None:
+            at = max(self.room.now_s(), self.room.robot_until_s) + self.reaction_s
+            self.spoken_at = self.room.play(self._pending.samples, at)
         return self._pending
+
+    def say_at(self, text: str, at_s: float) -> Recording:
+        """Speak `text` into the room at stream time `at_s`, whatever the robot is doing
+        (a "stop" said over the robot's voice); `spoken_at` says when the words are."""
+        if self.room is None:
+            raise ValueError("say_at needs a room to speak into")
+        recording = self.render(text)
+        self.spoken_at = self.room.play(recording.samples, at_s)
+        return recording
 
     def listen(self, timeout_s: float) -> Recording | None:
         recording, self._pending = self._pending, None

@@ -6,17 +6,23 @@ than `margin_db` above the floor, and above an absolute `min_db`, are active.
 Steady noise (fan, hiss) raises the floor with it and stays inactive; speech
 is modulated, so its frames stand out. Less than `min_speech_s` of active
 frames is silence.
+
+`EndOfSpeech` cuts a live stream into utterances, `LiveUtterance` keeps one as
+it arrives, and `EchoCanceller` takes the robot's own voice out of what the
+microphone hears, so that what is active is the person.
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from numpy.lib.stride_tricks import sliding_window_view
 
-from speech.audio import Samples, level_db
+from speech.audio import RATE, Samples, level_db
 
 FRAME_S = 0.02
 
@@ -62,7 +68,7 @@ class EndOfSpeech:
 
     The first `floor_s` set the noise floor; speech starts at a block `start_db`
     above it and ends after `pause_s` of blocks back under half that margin (or
-    after `max_s` of speech). The pause is the price of every answer: the
+    after `max_s` of speech: `too_long`). The pause is the price of every answer: the
     recogniser can only start once it has passed, so it is kept short (0.35 s:
     a yes/no answer has no pause inside; 0.7 s measured 0.8 s from the end of
     speech to the answer, over the 0.5 s target).
@@ -85,6 +91,7 @@ class EndOfSpeech:
         self.floor: float | None = None
         self.started_at: int | None = None  # block index of the onset
         self._quiet = 0
+        self.too_long = False  # ended by `max_s`, not by a pause
 
     def feed(self, block: Samples) -> bool:
         """Takes the next block; True once the utterance has ended."""
@@ -99,8 +106,26 @@ class EndOfSpeech:
                 self.started_at = len(self.levels) - 1
             return False
         self._quiet = self._quiet + 1 if loud < self.floor + self.start_db / 2 else 0
-        spoken = (len(self.levels) - self.started_at) * self.block_s
-        return self._quiet * self.block_s >= self.pause_s or spoken >= self.max_s
+        if self._quiet * self.block_s >= self.pause_s:
+            return True
+        self.too_long = self.spoken_s >= self.max_s
+        return self.too_long
+
+    @property
+    def spoken_s(self) -> float:
+        """Seconds since the onset (0 before it)."""
+        if self.started_at is None:
+            return 0.0
+        return (len(self.levels) - self.started_at) * self.block_s
+
+    @property
+    def quiet_s(self) -> float:
+        """Seconds of quiet since the last loud block of the utterance."""
+        return self._quiet * self.block_s
+
+    def restart(self) -> None:
+        """Ready for the next utterance of the same stream (the noise floor is kept)."""
+        self.levels, self.started_at, self._quiet, self.too_long = [], None, 0, False
 
 
 class LiveUtterance:
@@ -145,3 +170,65 @@ class LiveUtterance:
         """The utterance so far, from the pre-roll on."""
         kept = self.blocks[self._first() :] if self.started else []
         return np.concatenate(kept) if kept else np.zeros(0, dtype=np.int16)
+
+
+class EchoCanceller:
+    """Subtracts the robot's own voice from what the microphone hears.
+
+    The robot's audio (`add`) is placed on the stream's clock; each block is
+    fitted by least squares against it through a 32-tap filter (2 ms), from the
+    statistics of every block so far. That covers the simulated room (a direct
+    path and one reflection, sample-aligned); a real room needs a longer filter
+    and the playback delay found by correlation, which this does not do.
+    """
+
+    TAPS = 32
+
+    def __init__(self) -> None:
+        self._refs: list[tuple[int, npt.NDArray[np.float64]]] = []
+        self._lock = threading.Lock()
+        self._r = np.zeros((self.TAPS, self.TAPS))
+        self._p = np.zeros(self.TAPS)
+        self._learnt = 0  # samples of the robot's voice the fit has learnt from
+
+    def add(self, samples: Samples, start_s: float) -> None:
+        with self._lock:
+            self._refs.append((int(round(start_s * RATE)), samples.astype(np.float64)))
+
+    def cut(self, at_s: float) -> None:
+        """The robot fell silent at `at_s`: nothing after it is subtracted."""
+        cut = int(round(at_s * RATE))
+        with self._lock:
+            self._refs = [(start, audio[: max(0, cut - start)]) for start, audio in self._refs]
+
+    def cancel(self, block: Samples, end_s: float) -> Samples:
+        end = int(round(end_s * RATE))
+        first = end - len(block) - self.TAPS + 1
+        reference = np.zeros(len(block) + self.TAPS - 1)
+        with self._lock:
+            self._refs = [r for r in self._refs if r[0] + len(r[1]) + self.TAPS > first]
+            for start, audio in self._refs:
+                lo, hi = max(start, first), min(start + len(audio), end)
+                if lo < hi:
+                    reference[lo - first : hi - first] += audio[lo - start : hi - start]
+        if not reference.any():
+            return block
+        taps = sliding_window_view(reference, self.TAPS)[:, ::-1]  # row n: x(n), x(n-1), ...
+        heard = block.astype(np.float64)
+        left = heard - taps @ self._fit()
+        # A person speaking over the robot (far louder than what is left of the echo)
+        # would bend the fit: once 0.5 s of the robot's voice is learnt, the statistics
+        # learn from blocks that the fit explains.
+        learning = self._learnt < RATE // 2
+        if learning or np.mean(left * left) < 0.1 * np.mean(heard * heard):
+            self._r += taps.T @ taps
+            self._p += taps.T @ heard
+            self._learnt += int(np.count_nonzero(reference[self.TAPS - 1 :]))
+            left = heard - taps @ self._fit()
+        cleaned: Samples = np.clip(np.round(left), -32768, 32767).astype(np.int16)
+        return cleaned
+
+    def _fit(self) -> npt.NDArray[np.float64]:
+        ridge = 1e-6 * float(np.trace(self._r)) + 1e-9
+        fit = np.linalg.solve(self._r + ridge * np.eye(self.TAPS), self._p)
+        return np.asarray(fit, dtype=np.float64)

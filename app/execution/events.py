@@ -30,11 +30,21 @@ from planner.vocabulary import (
 
 Node = PlanNode
 
+# The dialogue's own events at a node, none a step of the plan (the text says more):
+# `own-voice`: what the microphone heard was the robot's own voice, not an answer;
+# `too-long`: an utterance longer than the scenario's maximum, refused;
+# `asked-again`: a question asked once more after a refusal or no speech;
+# `fell-back`: the voice gave up on a question and the fallback answers it;
+# `paused` / `resumed`: the human said "stop" / "continue" (source `voice`).
+DialogueKind = Literal["own-voice", "too-long", "asked-again", "fell-back", "paused", "resumed"]
+DIALOGUE_KINDS: tuple[DialogueKind, ...] = get_args(DialogueKind)
 # What an event is: the kind of the plan node run, or one of the execution's own.
 # `repair`: the execution changed plans after a surprise (its evidence says which);
 # `interrupted`: the walk stopped at this node for the reason in its text (the
-# program stopping, not a step of the plan).
-EventKind = Literal["actuation", "sensing", "communication", "goal", "repair", "interrupted"]
+# program stopping, not a step of the plan); or one of the dialogue's.
+EventKind = Literal[
+    "actuation", "sensing", "communication", "goal", "repair", "interrupted", DialogueKind
+]
 EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
 REPAIR: EventKind = "repair"
 INTERRUPTED: EventKind = "interrupted"
@@ -64,6 +74,24 @@ class OutcomeSource(Protocol):
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         """The outcome at `node` (one of `options`), or None when there is no answer."""
         ...
+
+
+class ExecutionControls(Protocol):
+    """What a source may do to the execution it answers for (the voice: "stop",
+    "continue", and the turns of the dialogue kept as events)."""
+
+    def pause(self, why: str | None = None, evidence: Evidence | None = None) -> None: ...
+
+    def resume(self, why: str | None = None, evidence: Evidence | None = None) -> None: ...
+
+    def note(
+        self,
+        kind: DialogueKind,
+        text: str,
+        source: AnswerSource | None = None,
+        evidence: Evidence | None = None,
+        node_id: str | None = None,
+    ) -> ExecutionEvent: ...
 
 
 class OutcomeError(Exception):
@@ -104,6 +132,22 @@ class ExecutionEvent:
     motion: Motion | None = field(default=None, compare=False, repr=False)
     evidence: Evidence | None = field(default=None, compare=False, repr=False)
     plan: Plan | None = field(default=None, compare=False, repr=False)  # a repair's new plan
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """Where an arm motion under way stands: its node, the waypoint reached (from 0)
+    and how many its path has."""
+
+    node: str
+    index: int
+    count: int
+
+
+def is_step(event: ExecutionEvent) -> bool:
+    """Whether `event` is a step along the plan (a node run, or a change of plans), not
+    an interruption or a turn of the dialogue."""
+    return event.kind != INTERRUPTED and event.kind not in DIALOGUE_KINDS
 
 
 def describe(action: Action | None, label: str | None) -> str:

@@ -42,6 +42,11 @@ class Line:
 
 LineListener = Callable[[Line], None]
 
+# What the robot says when the human stops it and when it goes on. No stop or
+# continue word is in them, so its own voice never sounds like a command.
+STOPPED = {"en-us": "I have stopped.", "ko": "멈췄습니다."}
+GOING_ON = {"en-us": "Going on.", "ko": "다시 시작합니다."}
+
 
 def plan_language(plan: Plan, default: str = "en-us") -> str:
     """The language a plan speaks: its `language("...")` fact, else `default`."""

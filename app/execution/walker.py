@@ -10,7 +10,10 @@ communication node as the executor reaches it, before its event (and before a
 question is asked): it speaks the sentence and returns what to keep of that
 (the text, the engine), which the event carries as evidence. It runs
 synchronously (`run()`) or in its own thread (`start()`), and can be paused,
-single-stepped, resumed and aborted from any thread.
+single-stepped, resumed and aborted from any thread; with `waypoint_s` an arm
+motion takes time and a pause stops it at its next waypoint. A source with
+`attach`/`detach` is handed the executor while it runs (the voice pauses it on
+"stop" and keeps the dialogue's turns with `note`, from its own thread).
 
 Slots follow the world: what the human's and the robot's slot choices change
 (the slot map, re-targeted motions, a surprise where the plan counts on a point)
@@ -22,12 +25,14 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
+from dataclasses import replace
 from typing import NamedTuple
 
 from app.execution.events import (
     INTERRUPTED,
     REPAIR,
     AnswerSource,
+    DialogueKind,
     EventKind,
     ExecutionEvent,
     Outcome,
@@ -36,6 +41,7 @@ from app.execution.events import (
     Repair,
     RepairFailed,
     Result,
+    Waypoint,
     describe,
 )
 from app.execution.evidence import Evidence, Replanned, merged
@@ -43,7 +49,7 @@ from app.execution.slots import Retarget, Slots
 from app.execution.surprises import Surprise, SurpriseError
 from planner.plan.model import Motion, Plan, PlanNode
 
-__all__ = ["INTERRUPTED", "Executor", "Listener", "Narrator", "Repairing", "Retarget"]
+__all__ = ["INTERRUPTED", "Executor", "Listener", "Narrator", "Repairing", "Retarget", "Waypoint"]
 
 Listener = Callable[[ExecutionEvent], None]
 # Plans again after a surprise at a node: the repair, and the new plan's hash.
@@ -94,6 +100,7 @@ class Executor:
         narrator: Narrator | None = None,
         repairing: Repairing | None = None,
         retarget: Retarget | None = None,
+        waypoint_s: float = 0.0,
     ) -> None:
         self.plan = plan
         self.slots = Slots(plan, retarget, replans=repairing is not None)
@@ -103,6 +110,10 @@ class Executor:
         self.source = source
         self.listeners = list(listeners)
         self.step_delay = step_delay
+        # Seconds an arm takes from one waypoint of its path to the next (0: a motion
+        # takes no time); a pause stops the arm at its next waypoint.
+        self.waypoint_s = waypoint_s
+        self.waypoint: Waypoint | None = None  # the arm motion under way
         self.result: Result | None = None
         self.error: BaseException | None = None
         self.current: str | None = None  # the node being run
@@ -110,24 +121,40 @@ class Executor:
         self._cond = threading.Condition()
         self._paused = False
         self._credits = 0  # steps allowed while paused
+        self._stepping = False  # a single step runs: its motion goes to its end
         self._aborted = False
         self._stopped_by: str | None = None  # why the walk was interrupted
         self._thread: threading.Thread | None = None
         self._done = threading.Event()
+        self._recording = threading.RLock()  # events come from the walk and the voice
+        attach = getattr(source, "attach", None)
+        if callable(attach):
+            attach(self)  # a source that pauses and records (the voice) is told who runs
 
     # -- controls (any thread) ------------------------------------------------
 
-    def pause(self) -> None:
+    def pause(self, why: str | None = None, evidence: Evidence | None = None) -> None:
+        """Pauses before the next node (an arm motion under way stops at its next
+        waypoint). `why`, when given (the human said "stop"), is kept as a `paused`
+        event, with the `evidence` of what was heard."""
         with self._cond:
+            was = self._paused
             self._paused = True
             self._credits = 0
+            self._stepping = False
             self._cond.notify_all()
+        if why is not None and not was:
+            self.note("paused", why, "voice", evidence)
 
-    def resume(self) -> None:
+    def resume(self, why: str | None = None, evidence: Evidence | None = None) -> None:
+        """Goes on; `why`, when given, is kept as a `resumed` event (as for `pause`)."""
         with self._cond:
+            was = self._paused
             self._paused = False
             self._credits = 0
             self._cond.notify_all()
+        if why is not None and was:
+            self.note("resumed", why, "voice", evidence)
 
     def step(self) -> None:
         """Single-step mode: pauses, and lets exactly one more node run."""
@@ -202,6 +229,9 @@ class Executor:
         finally:
             self.current = None
             self.slots.close()  # the motion planner's check cache, in the thread that used it
+            detach = getattr(self.source, "detach", None)
+            if callable(detach):
+                detach(self)  # the voice stops listening
             self._done.set()
         return self.result
 
@@ -247,6 +277,8 @@ class Executor:
         self._emit(
             node_id, node, text=text, motion=step.motion, evidence=merged(spoken, step.evidence)
         )
+        if step.motion is not None and self.waypoint_s > 0:
+            self._move(node_id, step.motion)
         return _Next(node.children[0].node)
 
     def _branching_step(self, node_id: str, node: PlanNode, spoken: Evidence | None) -> _Next:
@@ -277,11 +309,26 @@ class Executor:
                 if self._aborted:
                     raise _Aborted
                 if not self._paused:
+                    self._stepping = False
                     return
                 if self._credits > 0:
                     self._credits -= 1
+                    self._stepping = True
                     return
                 self._cond.wait()
+
+    def _move(self, node_id: str, motion: Motion) -> None:
+        """The arm goes through its path, `waypoint_s` a waypoint; paused, it stops at
+        the waypoint it reaches next (a single step's motion goes to its end)."""
+        count = len(motion.path)
+        for index in range(count):
+            self.waypoint = Waypoint(node_id, index, count)
+            with self._cond:
+                while self._paused and not self._stepping and not self._aborted:
+                    self._cond.wait()
+            if index + 1 < count:
+                self._sleep(self.waypoint_s)
+        self.waypoint = None
 
     def _sleep(self, seconds: float) -> None:
         if seconds <= 0:
@@ -342,14 +389,12 @@ class Executor:
         replanned = Replanned(
             str(surprise), tuple(sorted(repair.observed)), digest, round(repair.seconds, 3)
         )
-        event = ExecutionEvent(
-            seq=len(self.events), time=time.time(), node=node_id, action=node.action,
-            kind=REPAIR, source=source, text=repair.words,
-            evidence=Evidence(replanned=replanned), plan=repair.plan,
+        self._record(
+            ExecutionEvent(
+                0, 0.0, node_id, node.action, REPAIR, source=source, text=repair.words,
+                evidence=Evidence(replanned=replanned), plan=repair.plan,
+            )
         )  # fmt: skip
-        self.events.append(event)
-        for listener in self.listeners:
-            listener(event)
         self.plan = repair.plan
         self.nodes = repair.plan.nodes
         self.slots.switch_plan(repair.plan)
@@ -357,13 +402,32 @@ class Executor:
 
     def _emit_stop(self, node_id: str, reason: str) -> None:
         """The last event of an interrupted walk: where it stood, and why it stopped."""
-        event = ExecutionEvent(
-            seq=len(self.events), time=time.time(), node=node_id, action=None,
-            kind=INTERRUPTED, text=reason,
-        )  # fmt: skip
-        self.events.append(event)
-        for listener in self.listeners:
-            listener(event)
+        self._record(ExecutionEvent(0, 0.0, node_id, None, INTERRUPTED, text=reason))
+
+    def note(
+        self,
+        kind: DialogueKind,
+        text: str,
+        source: AnswerSource | None = None,
+        evidence: Evidence | None = None,
+        node_id: str | None = None,
+    ) -> ExecutionEvent:
+        """Keeps a turn of the dialogue (from any thread) at `node_id`, by default the
+        node being run (else the last one, else the root)."""
+        if node_id is None:
+            last = self.events[-1].node if self.events else self.plan.root
+            node_id = self.current or last
+        event = ExecutionEvent(0, 0.0, node_id, None, kind, source=source, text=text)
+        return self._record(replace(event, evidence=evidence))
+
+    def _record(self, event: ExecutionEvent) -> ExecutionEvent:
+        """`event`, numbered and timed now, kept and told to the listeners in order."""
+        with self._recording:
+            event = replace(event, seq=len(self.events), time=time.time())
+            self.events.append(event)
+            for listener in self.listeners:
+                listener(event)
+        return event
 
     def _emit(
         self,
@@ -377,19 +441,9 @@ class Executor:
         motion: Motion | None = None,
         evidence: Evidence | None = None,
     ) -> None:
-        event = ExecutionEvent(
-            seq=len(self.events),
-            time=time.time(),
-            node=node_id,
-            action=node.action,
-            kind=_event_kind(node),
-            outcome=outcome,
-            source=source,
-            confidence=confidence,
-            text=text,
-            motion=motion,
-            evidence=evidence,
-        )
-        self.events.append(event)
-        for listener in self.listeners:
-            listener(event)
+        self._record(
+            ExecutionEvent(
+                0, 0.0, node_id, node.action, _event_kind(node), outcome=outcome, source=source,
+                confidence=confidence, text=text, motion=motion, evidence=evidence,
+            )
+        )  # fmt: skip

@@ -9,22 +9,35 @@ voice source before each listen). Nodes the voice does not answer (sensing,
 or a question refused twice) go to the fallback; every question's event
 carries the voice's evidence either way, so a session says which answered.
 
+With `live=True` (`sim` only) the dialogue listens all the time, as it would
+in a room (`speech.dialogue`): the robot's sentences and the simulated human's
+words share one simulated microphone in real time, the robot never takes its
+own voice for an answer, the scenario's `DialogueTimes` bound the waits, and
+"stop" / "continue" pause and resume the execution (`StopListener`). The
+dialogue's turns (asked again, fell back, too long, own voice, paused,
+resumed) are kept as events of the execution that `attach`es the source.
+
 No speech model for the language is `NoSpeechModel` (one line); no
 microphone is `NoAudioDevice`; a missing folder `FileNotFoundError`.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from app.execution.events import Outcome, OutcomeSource
+from app.execution.events import ExecutionControls, Outcome, OutcomeSource
 from app.execution.evidence import merged
-from app.execution.narration import LineListener, RobotVoice
+from app.execution.narration import Line, LineListener, RobotVoice
 from app.sim.speaker import SimulatedSpeaker
 from app.sources.outcomes import ScriptedSource
+from app.sources.stop_listener import StopListener
 from app.sources.voice import (
+    ANSWERS,
+    Asked,
+    Attempt,
     AttemptListener,
     ListeningListener,
     VoiceHooks,
@@ -32,10 +45,104 @@ from app.sources.voice import (
     is_question,
 )
 from planner.plan.model import PlanNode
-from speech.languages import language
+from planner.scenario.sections import Human
+from speech.audio import RATE, read_wav, resample
+from speech.dialogue import BLOCK_S, Commands, DialogueTimes, Ear, Hearing
+from speech.languages import Language, language
 from speech.recognition import Recognizer
-from speech.sources import AudioSource, MicrophoneSource, SimulatedVoice, WavFolderSource
+from speech.sources import (
+    AudioSource,
+    MicrophoneSource,
+    SimulatedRoom,
+    SimulatedVoice,
+    WavFolderSource,
+)
 from speech.synthesis import Engine
+
+OwnVoiceListener = Callable[[str, Hearing], None]
+NO_HOOKS = VoiceHooks()
+DEFAULT_TIMES = DialogueTimes()
+
+
+class DialogueVoice(VoiceSource):
+    """A `VoiceSource` that hears its answers through an always-listening `Ear`.
+
+    Each ask waits for the ear's next answer: "no speech" after the dialogue's
+    no-speech time, "too long" past its maximum utterance, the recogniser's
+    verdict otherwise; what the ear refused meanwhile as the robot's own voice
+    goes to `on_own_voice`. `audio` is only kept (the ear listens).
+    """
+
+    def __init__(
+        self,
+        language_code: str | Language,
+        audio: AudioSource,
+        ear: Ear,
+        recognizer: Recognizer | None = None,
+        voice: RobotVoice | None = None,
+        hooks: VoiceHooks = NO_HOOKS,
+    ) -> None:
+        no_speech_s = ear.times.no_speech_s
+        super().__init__(language_code, audio, recognizer, voice,
+                         listen_timeout_s=no_speech_s, hooks=hooks)  # fmt: skip
+        self.ear = ear
+        self.on_own_voice: OwnVoiceListener | None = None
+        self._asked_from = 0  # the ear's hearings since the question was asked
+
+    def speak(self, node_id: str, text: str) -> Asked:
+        self._asked_from = len(self.ear.heard)
+        return super().speak(node_id, text)
+
+    def interrupt(self) -> None:
+        super().interrupt()
+        self.ear.interrupt()
+
+    def _listen(self, node_id: str, number: int) -> Attempt:
+        if self.on_listening is not None:
+            self.on_listening(True)
+        try:
+            answer = self.ear.answer(self.recognizer)
+        finally:
+            if self.on_listening is not None:
+                self.on_listening(False)
+        own = [h for h in self.ear.heard[self._asked_from :] if h.reason == "own voice"]
+        own += [h for h in answer.own_voice if h not in own]
+        for hearing in own:
+            if self.on_own_voice is not None:
+                self.on_own_voice(node_id, hearing)
+        heard = answer.hearing
+        if heard is None:
+            return Attempt(node_id, number, (), 0.0, None, answer.reason)
+        meaning = heard.meaning if heard.meaning in ANSWERS else None
+        reason = heard.reason or (None if meaning else "out of grammar")
+        return Attempt(
+            node_id, number, heard.words, heard.confidence, meaning, reason, heard.origin
+        )
+
+
+class RoomSpeakers:
+    """The robot's speakers in the simulated room: each line is played into the room
+    (as its microphone hears it) and the ear is told; the robot waits until it has
+    said the line, or until it is stopped (`stop`)."""
+
+    def __init__(self, room: SimulatedRoom, ear: Ear) -> None:
+        self.room = room
+        self.ear = ear
+
+    def __call__(self, line: Line) -> None:
+        if line.utterance is None or line.utterance.format != "wav":
+            return  # not spoken, or MP3 (a simulated room plays espeak-ng's WAV)
+        recording = read_wav(line.utterance.path)
+        samples = resample(recording.samples, recording.rate, RATE)
+        span = self.room.play_robot(samples)
+        self.ear.robot_speaks(samples, span.start_s)
+        while self.room.position_s < min(span.end_s, self.room.robot_until_s):
+            time.sleep(BLOCK_S)
+
+    def stop(self) -> None:
+        """The robot falls silent now."""
+        self.room.cut_robot()
+        self.ear.robot_stopped(self.room.now_s())
 
 
 class VoiceAnswers:
@@ -51,11 +158,53 @@ class VoiceAnswers:
         voice: VoiceSource,
         fallback: OutcomeSource,
         on_fallback: Callable[[str, str], None] | None = None,
+        stops: StopListener | None = None,
     ) -> None:
         self.voice = voice
         self.fallback = fallback
         self.on_fallback = on_fallback
+        self.stops = stops
+        self.controls: ExecutionControls | None = None
         self._given_up: str | None = None
+        self._told = voice.on_attempt
+        voice.on_attempt = self._attempted
+        if isinstance(voice, DialogueVoice):
+            voice.on_own_voice = self._own_voice
+
+    # -- the execution that runs (the walker attaches and detaches its source)
+
+    def attach(self, controls: ExecutionControls) -> None:
+        self.controls = controls
+        if self.stops is not None:
+            self.stops.attach(controls)
+
+    def detach(self, controls: ExecutionControls) -> None:
+        self.controls = None
+        if self.stops is not None:
+            self.stops.attach(None)
+        if isinstance(self.voice, DialogueVoice):
+            self.voice.ear.close()
+
+    def _attempted(self, attempt: Attempt) -> None:
+        """Each try: told on, and a refusal kept as the dialogue's turn."""
+        if self._told is not None:
+            self._told(attempt)
+        controls = self.controls
+        if controls is None or attempt.accepted:
+            return
+        if attempt.reason == "too long" and isinstance(self.voice, DialogueVoice):
+            limit = self.voice.ear.times.max_utterance_s
+            controls.note("too-long", f"an utterance over {limit:g} s: not an answer",
+                          "voice", node_id=attempt.node_id)  # fmt: skip
+        if attempt.number < self.voice.tries:
+            controls.note("asked-again", f"asked again ({attempt.reason})", "voice",
+                          node_id=attempt.node_id)  # fmt: skip
+
+    def _own_voice(self, node_id: str, hearing: Hearing) -> None:
+        if self.controls is not None:
+            heard = f" ('{' '.join(hearing.words)}')" if hearing.words else ""
+            self.controls.note("own-voice", f"the robot's own voice{heard}: not an answer",
+                               "voice", node_id=node_id)  # fmt: skip
 
     def interrupt(self) -> None:
         self.voice.interrupt()
@@ -77,8 +226,8 @@ class VoiceAnswers:
                     withdraw(node_id)
                 return outcome
             self._given_up = node_id
-            if self.on_fallback is not None and outcome is None:
-                self.on_fallback(node_id, self.voice.summary(node_id))
+            if outcome is None:
+                self._fell_back(node_id)
         answer = self.fallback.choose(node_id, node, options)
         if answer is None:
             return None
@@ -87,6 +236,14 @@ class VoiceAnswers:
         if hearing is not None:
             hearing = replace(hearing, answered_by="fallback", fallback=answer.source)
         return replace(answer, evidence=merged(answer.evidence, replace(heard, voice=hearing)))
+
+    def _fell_back(self, node_id: str) -> None:
+        summary = self.voice.summary(node_id)
+        if self.on_fallback is not None:
+            self.on_fallback(node_id, summary)
+        if self.controls is not None:
+            self.controls.note("fell-back", f"no voice answer ({summary}): the fallback answers",
+                               "voice", node_id=node_id)  # fmt: skip
 
     def _by_voice(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Outcome | None:
         try:
@@ -110,6 +267,14 @@ class VoiceResponses:
     voice: VoiceSource
     robot: RobotVoice
     speaker: SimulatedSpeaker | None
+    room: SimulatedRoom | None = None  # live: the simulated microphone's room
+    ear: Ear | None = None  # live: what listens all the time
+    stops: StopListener | None = None  # live: "stop" and "continue"
+
+
+def dialogue_times(human: Human) -> DialogueTimes:
+    """The dialogue's times from a scenario's `[human]` section."""
+    return DialogueTimes(human.no_speech_s, human.end_of_speech_s, human.max_utterance_s)
 
 
 def human_script(human: str) -> list[str]:
@@ -136,11 +301,21 @@ def voice_responses(
     on_listening: ListeningListener | None = None,
     on_fallback: Callable[[str, str], None] | None = None,
     recognizer: Recognizer | None = None,
+    live: bool = False,
+    times: DialogueTimes = DEFAULT_TIMES,
 ) -> VoiceResponses:
-    """The voice source for `voice:SOURCE` (see the module docstring for the errors)."""
+    """The voice source for `voice:SOURCE` (see the module docstring for the errors);
+    `live` (with `sim`) listens all the time, within the dialogue's `times`."""
     lang = language(language_code)
     # The model first: without one nothing else is worth opening.
     hearing = recognizer if recognizer is not None else Recognizer(lang, model_dir)
+    lines = [on_line] if on_line else []
+    if live:
+        if spec != "sim":
+            raise ValueError("a live dialogue is simulated only (voice:sim)")
+        hooks = VoiceHooks(on_attempt=on_attempt, on_listening=on_listening)
+        wiring = LiveDialogue(lang, hearing, times, cache_dir, model_dir)
+        return wiring.responses(fallback, seed, human, lines, hooks, on_fallback)
     speaker: SimulatedSpeaker | None = None
     audio: AudioSource
     if spec == "sim":
@@ -148,15 +323,59 @@ def voice_responses(
                                    script=human_script(human))  # fmt: skip
         audio = speaker.voice
     elif spec == "mic":
-        audio = MicrophoneSource()
+        audio = MicrophoneSource(pause_s=times.end_of_speech_s, max_s=times.max_utterance_s)
     else:
         audio = WavFolderSource(spec)
-    robot = RobotVoice(lang, engine, cache_dir, [on_line] if on_line else [], questions=False)
+    robot = RobotVoice(lang, engine, cache_dir, lines, questions=False)
     hooks = VoiceHooks(
         on_question=speaker,
         truth=speaker.truth if speaker is not None else None,
         on_attempt=on_attempt,
         on_listening=on_listening,
     )
-    voice = VoiceSource(lang, audio, hearing, robot, hooks=hooks)
+    voice = VoiceSource(
+        lang, audio, hearing, robot, listen_timeout_s=times.no_speech_s, hooks=hooks
+    )
     return VoiceResponses(VoiceAnswers(voice, fallback, on_fallback), voice, robot, speaker)
+
+
+@dataclass(frozen=True)
+class LiveDialogue:
+    """The live simulated dialogue: one room, its ear, the robot's speakers in it.
+
+    `cancel_echo` False leaves the robot's voice in what the ear hears (only the
+    self-hearing window keeps it from being an answer).
+    """
+
+    language: Language
+    recognizer: Recognizer
+    times: DialogueTimes = DEFAULT_TIMES
+    cache_dir: Path | None = None
+    model_dir: Path | str | None = None
+    cancel_echo: bool = True
+
+    def responses(
+        self,
+        fallback: OutcomeSource,
+        seed: int | None,
+        human: str = "random",
+        lines: Sequence[LineListener] = (),
+        hooks: VoiceHooks = NO_HOOKS,
+        on_fallback: Callable[[str, str], None] | None = None,
+    ) -> VoiceResponses:
+        room = SimulatedRoom(seed)
+        speaker = SimulatedSpeaker(SimulatedVoice(self.language, seed=seed, room=room),
+                                   seed=seed, script=human_script(human))  # fmt: skip
+        commands = Commands(self.language, self.model_dir)
+        ear = Ear(room, self.times, commands, cancel_echo=self.cancel_echo)
+        speakers = RoomSpeakers(room, ear)
+        # espeak-ng: the room plays WAV; the speakers last, so a line is printed first.
+        robot = RobotVoice(self.language, "espeak", self.cache_dir, [*lines, speakers],
+                           questions=False)  # fmt: skip
+        stops = StopListener(ear, robot, on_stop=speakers.stop)
+        ear.on_command = stops
+        hooks = replace(hooks, on_question=speaker, truth=speaker.truth)
+        voice = DialogueVoice(self.language, speaker.voice, ear, self.recognizer, robot, hooks)
+        ear.start()
+        answers = VoiceAnswers(voice, fallback, on_fallback, stops)
+        return VoiceResponses(answers, voice, robot, speaker, room, ear, stops)

@@ -95,10 +95,30 @@ Language = Literal["en-us", "ko"]
 DEFAULT_LANGUAGE: Language = "en-us"
 
 
+# The voice dialogue's times, in seconds (speech.dialogue.DialogueTimes says why):
+# how long the robot waits for an answer to begin (Furhat's SDK also waits 5 s),
+# the silence that ends an answer (not Furhat's 0.8 s: 0.7 s measured 0.8 s from the
+# end of speech to the answer, over the 0.5 s target; answers have no pause inside), and
+# the longest utterance taken as an answer (one to three words last under 1.5 s;
+# Furhat's 15 s is for open questions and would only delay asking again).
+DEFAULT_NO_SPEECH_S = 5.0
+DEFAULT_END_OF_SPEECH_S = 0.35
+DEFAULT_MAX_UTTERANCE_S = 5.0
+
+
 class Human(StrictModel):
     name: str = "teammate"
     initiative: int = Field(default=DEFAULT_INITIATIVE, ge=0, le=3)
     language: Language = DEFAULT_LANGUAGE
+    no_speech_s: float = Field(default=DEFAULT_NO_SPEECH_S, ge=1.0, le=60.0)
+    end_of_speech_s: float = Field(default=DEFAULT_END_OF_SPEECH_S, ge=0.1, le=3.0)
+    max_utterance_s: float = Field(default=DEFAULT_MAX_UTTERANCE_S, ge=1.0, le=60.0)
+
+    @model_validator(mode="after")
+    def _pause_within_an_utterance(self) -> Human:
+        if self.end_of_speech_s >= self.max_utterance_s:
+            raise ValueError("end_of_speech_s must be shorter than max_utterance_s")
+        return self
 
 
 class Camera(StrictModel):

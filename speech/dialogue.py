@@ -1,0 +1,421 @@
+"""A dialogue that listens all the time: answers, the robot's own voice, timeouts, commands.
+
+`Ear` reads a live `BlockStream` (the simulated room, or a microphone) in its
+own thread and cuts it into utterances (`EndOfSpeech`, with the dialogue's
+end-of-speech pause and maximum utterance). Each utterance is decoded while it
+is spoken, by the command grammar always and by the answer grammar while an
+answer is awaited (`Ear.answer`), and is then judged:
+
+- **Never hearing itself.** The robot tells the ear what it says and when
+  (`robot_speaks`). An utterance that starts while the robot speaks, or within
+  `echo_tail_s` after, is never an answer ("own voice"); it is cut at the end
+  of that window, so an answer that starts right after is heard on its own.
+  Where the robot's audio is known sample for sample (the simulated room),
+  `voice_activity.EchoCanceller` also subtracts it from what the microphone hears, so a
+  person can still be heard over the robot (a "stop" said while it speaks).
+- **Timeouts.** No utterance within `no_speech_s` of the robot's last word is
+  "no speech"; an utterance cut by `max_utterance_s` is "too long" (and the
+  rest of it is ignored until the next pause). Either ends the wait, so the
+  question is asked again and then falls back, as a refusal does.
+- **Commands.** "stop" (and "wait", 멈춰, 잠깐, 정지) and "continue" (계속,
+  계속해) are heard at any time, with the recogniser's rejection strategy on a
+  grammar of the commands (the answers and the language's distractor words
+  absorb everything else); `on_command` is told. A "continue" in the robot's
+  own voice window is ignored (the robot must never resume itself); a "stop"
+  is taken, since stopping is always safe. While the ear is `held` (the
+  execution is paused) no answer is taken and the no-speech time does not run.
+
+Measured on espeak-ng's voices (12 each: variants, speeds, pitches, half
+with noise). Korean (vosk): 멈춰 9/12, 잠깐 9/12, 잠깐만 6/12, 정지 7/12 taken
+as stop; 계속 11/12, 계속해 12/12 as continue; of 84 non-commands (answers,
+words, sentences) one (네) was taken as a command; 그만 (1/12) was dropped.
+English (pocketsphinx, which has no distractor words): stop 9/12, wait 12/12;
+continue 11/12, resume 12/12; "hold on" and "go on" were dropped (each heard
+as the other); of 96 non-commands 11 were taken ("okay" 4 and "table" 1 as
+stop, which only pauses; "no", "hello there" 3 each as continue, which only
+acts while paused). A person repeats a command the robot did not obey.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from speech.audio import BLOCK, RATE, Samples, level_db
+from speech.languages import Language, language
+from speech.recognition import Decoding, Heard, Recognizer
+from speech.sources import BlockStream
+from speech.voice_activity import FRAME_S, EchoCanceller, EndOfSpeech, activity
+
+BLOCK_S = BLOCK / RATE
+# Why the dialogue (not the recogniser) refused what it heard.
+DialogueRefusal = Literal["no speech", "own voice", "too long"]
+Command = Literal["stop", "continue"]
+
+# Stop and continue phrases per language (words of the language's speech model).
+COMMAND_WORDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "ko": (("멈춰", "잠깐", "정지"), ("계속", "계속해")),
+    "en-us": (("stop", "wait"), ("continue", "resume")),
+}
+
+
+@dataclass(frozen=True)
+class DialogueTimes:
+    """The dialogue's three times and the self-hearing tail, in seconds.
+
+    Furhat's SDK waits 5 s for speech, 0.8 s of silence and 15 s of speech.
+    `no_speech_s` keeps its 5 s. `end_of_speech_s` is 0.35 s: an answer here is
+    one to three words with no pause inside, and the answer can only be taken
+    once the pause has passed (0.7 s measured 0.8 s from the end of speech to
+    the answer, over the 0.5 s target). `max_utterance_s` is 5 s: answers and
+    commands last at most 1.5 s at espeak-ng's slowest speed, so anything much
+    longer is talk, not an answer, and 15 s would only delay asking again.
+    """
+
+    no_speech_s: float = 5.0
+    end_of_speech_s: float = 0.35
+    max_utterance_s: float = 5.0
+    echo_tail_s: float = 0.3
+
+
+@dataclass(frozen=True)
+class Hearing:
+    """One utterance the ear heard and what it made of it.
+
+    `meaning` is the answer ("yes"/"no") and `command` the command, when taken;
+    otherwise `reason` says why not (a `DialogueRefusal` or the recogniser's).
+    """
+
+    start_s: float
+    end_s: float
+    words: tuple[str, ...] = ()
+    confidence: float = 0.0
+    meaning: str | None = None
+    command: Command | None = None
+    reason: str | None = None
+
+    @property
+    def origin(self) -> str:
+        return f"live:{self.start_s:.2f}-{self.end_s:.2f}s"
+
+
+@dataclass
+class Answer:
+    """What `Ear.answer` waited for: the utterance that ended the wait (None: no
+    speech) and the robot's own voice refused meanwhile."""
+
+    hearing: Hearing | None
+    own_voice: list[Hearing] = field(default_factory=list)
+
+    @property
+    def reason(self) -> str | None:
+        if self.hearing is None:
+            return "no speech"
+        return self.hearing.reason
+
+
+class Commands:
+    """Stop and continue, heard with the rejection strategy of `Recognizer`: the
+    stop phrases stand where the yes words do, the continue phrases where the no
+    words do, and the answer words join the distractors."""
+
+    def __init__(self, language_code: str | Language, model_dir: Path | str | None = None):
+        lang = language_code if isinstance(language_code, Language) else language(language_code)
+        stop, go_on = COMMAND_WORDS[lang.code]
+        distractors = (*lang.distractors, *lang.yes_words, *lang.no_words)
+        self.recognizer = Recognizer(lang, model_dir, stop, go_on, distractors)
+
+    def start(self) -> Decoding:
+        return self.recognizer.start()
+
+    @staticmethod
+    def command_of(heard: Heard) -> Command | None:
+        if heard.meaning == "yes":
+            return "stop"
+        return "continue" if heard.meaning == "no" else None
+
+
+CommandListener = Callable[[Command, Hearing], None]
+
+
+@dataclass
+class _Utterance:
+    """The utterance being heard: where it started, its decodings, whether it is own."""
+
+    start_s: float
+    own: bool
+    commands: Decoding | None
+    answers: Decoding | None
+
+
+class Ear:
+    """Listens to `stream` in its own thread (see the module docstring).
+
+    `cancel_echo` subtracts the robot's audio (only where it is sample-aligned
+    with the stream, as in `SimulatedRoom`). `heard` keeps every utterance.
+    """
+
+    def __init__(
+        self,
+        stream: BlockStream,
+        times: DialogueTimes = DialogueTimes(),
+        commands: Commands | None = None,
+        on_command: CommandListener | None = None,
+        *,
+        cancel_echo: bool = True,
+        start_db: float = 12.0,
+    ) -> None:
+        self.stream = stream
+        self.times = times
+        self.commands = commands
+        self.on_command = on_command
+        self.canceller = EchoCanceller() if cancel_echo else None
+        self.cut = EndOfSpeech(BLOCK_S, start_db, times.end_of_speech_s, times.max_utterance_s)
+        self.heard: list[Hearing] = []
+        self.held = False
+        self._cond = threading.Condition(threading.RLock())
+        self._robot: list[tuple[float, float]] = []  # when the robot spoke (stream time)
+        self._awaiting: Recognizer | None = None
+        self._answer: Answer | None = None
+        self._current: _Utterance | None = None
+        self._draining = False  # the rest of a too-long utterance
+        self._recent: list[tuple[float, Samples]] = []  # the pre-roll before an onset
+        self._levels: list[float] = []  # dBFS of the recent blocks between utterances
+        self._closed = False
+        self._interrupted = False
+        self._quiet_from = 0.0  # the no-speech time of an answer counts from here
+        self._thread = threading.Thread(target=self._run, name="ear", daemon=True)
+
+    # -- what the owner says and asks (any thread) --------------------------------
+
+    def start(self) -> Ear:
+        self._thread.start()
+        return self
+
+    def close(self) -> None:
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+
+    def robot_speaks(self, samples: Samples, start_s: float) -> None:
+        """The robot says `samples` from stream time `start_s` (as played); its voice
+        ends with its last loud frame (espeak-ng ends on ~0.3 s of silence)."""
+        loud = np.flatnonzero(activity(samples, RATE).active)
+        end_s = start_s + (loud[-1] + 1) * FRAME_S if loud.size else start_s
+        with self._cond:
+            self._robot.append((start_s, end_s))
+        if self.canceller is not None:
+            self.canceller.add(samples, start_s)
+
+    def robot_stopped(self, at_s: float) -> None:
+        """The robot fell silent at `at_s`, before the end of what it was saying."""
+        with self._cond:
+            self._robot = [(start, min(end, at_s)) for start, end in self._robot]
+        if self.canceller is not None:
+            self.canceller.cut(at_s)
+
+    def interrupt(self) -> None:
+        """The answer being waited for (or the next) is given up at once."""
+        with self._cond:
+            self._interrupted = True
+            self._cond.notify_all()
+
+    @property
+    def robot_until_s(self) -> float:
+        """The end of the self-hearing window: the robot's last word and the tail."""
+        with self._cond:
+            last = max((end for _, end in self._robot), default=0.0)
+        return last + self.times.echo_tail_s
+
+    def hold(self, held: bool) -> None:
+        """Paused (True): no answer is taken and the no-speech time stands still."""
+        with self._cond:
+            self.held = held
+            self._cond.notify_all()
+
+    def answer(self, recognizer: Recognizer, no_speech_s: float | None = None) -> Answer:
+        """The next utterance heard as an answer by `recognizer`, once the robot has
+        finished speaking; "no speech" after `no_speech_s` (default the dialogue's)."""
+        wait = self.times.no_speech_s if no_speech_s is None else no_speech_s
+        with self._cond:
+            self._awaiting, self._answer = recognizer, Answer(None)
+            self._quiet_from = self.stream.position_s
+            try:
+                while not self._closed and not self._interrupted:
+                    if self._answer.hearing is not None or self._silent_for(wait):
+                        break
+                    self._cond.wait(BLOCK_S)
+                self._interrupted = False
+                return self._answer
+            finally:
+                self._awaiting = None
+
+    def _silent_for(self, wait: float) -> bool:
+        """Whether nobody has spoken for `wait` s since the robot stopped, not counting
+        the time held or spent in an utterance (under the lock)."""
+        now = self.stream.position_s
+        if self.held or self._current is not None:
+            self._quiet_from = now
+            return False
+        return now - max(self._quiet_from, self.robot_until_s) >= wait
+
+    # -- the thread -------------------------------------------------------------
+
+    def _run(self) -> None:
+        while not self._closed:
+            block = self.stream.read()
+            end_s = self.stream.position_s
+            if self.canceller is not None:
+                block = self.canceller.cancel(block, end_s)
+            with self._cond:
+                self._hear(block, end_s)
+                self._cond.notify_all()
+
+    def _in_window(self, at_s: float) -> bool:
+        tail = self.times.echo_tail_s
+        return any(start <= at_s <= end + tail for start, end in self._robot)
+
+    def _hear(self, block: Samples, end_s: float) -> None:
+        """One block, under the lock: an utterance starts, goes on or ends."""
+        self._recent = [*self._recent[-9:], (end_s, block)]  # 0.3 s of pre-roll
+        if self._draining:
+            self.cut.feed(block)
+            if self.cut.floor is not None and self.cut.quiet_s >= self.times.end_of_speech_s:
+                self._draining = False
+                self.cut.restart()
+            return
+        if self._current is None:
+            self._follow_floor(block)
+        ended = self.cut.feed(block)
+        if self._current is None:
+            if self.cut.started_at is None:
+                return
+            self._current = self._begin(end_s)
+            # The pre-roll, but none of the robot's window: an answer heard on its own.
+            window = self.robot_until_s
+            for ended_s, piece in self._recent:
+                if self._current.own or ended_s > window:
+                    self._feed(piece)
+        else:
+            self._feed(block)
+        current = self._current
+        if current.own and end_s >= self.robot_until_s:
+            ended = True  # the window is over: what follows is heard on its own
+        if ended:
+            self._end(current, end_s)
+
+    def _follow_floor(self, block: Samples) -> None:
+        """The noise floor of the last 3 s between utterances: the room's quiet, not
+        whatever (the robot's voice) was heard when listening began."""
+        self._levels = [*self._levels[-99:], level_db(block)]
+        if len(self._levels) >= 10:
+            self.cut.floor = float(np.percentile(self._levels, 10))
+
+    def _begin(self, onset_s: float) -> _Utterance:
+        """An utterance whose onset is in the block ending at `onset_s`."""
+        own = self._in_window(onset_s)
+        commands = self.commands.start() if self.commands is not None else None
+        answering = self._awaiting is not None and not self.held
+        answers = self._awaiting.start() if answering and self._awaiting else None
+        return _Utterance(onset_s - BLOCK_S, own, commands, answers)
+
+    def _feed(self, block: Samples) -> None:
+        assert self._current is not None
+        for decoding in (self._current.commands, self._current.answers):
+            if decoding is not None:
+                decoding.feed(block)
+
+    def _end(self, current: _Utterance, end_s: float) -> None:
+        too_long = self.cut.too_long
+        self._current = None
+        if too_long:
+            self._draining = True
+        else:
+            self.cut.restart()
+        command = self._command(current, too_long, end_s)
+        if command is not None:
+            self.heard.append(command)
+            if self.on_command is not None:
+                self.on_command(command.command or "stop", command)
+            return
+        hearing = self._judged(current, too_long, end_s)
+        self.heard.append(hearing)
+        if self._awaiting is None or self._answer is None:
+            return
+        if hearing.reason == "own voice":
+            self._answer.own_voice.append(hearing)
+        elif current.answers is not None:
+            self._answer.hearing = hearing
+
+    def _command(self, current: _Utterance, too_long: bool, end_s: float) -> Hearing | None:
+        if current.commands is None or too_long:
+            return None
+        heard = current.commands.finish()
+        command = Commands.command_of(heard)
+        if command is None or (command == "continue" and current.own):
+            return None
+        return Hearing(current.start_s, end_s, heard.words, heard.confidence, command=command)
+
+    def _judged(self, current: _Utterance, too_long: bool, end_s: float) -> Hearing:
+        refusal: DialogueRefusal | None = (
+            "own voice" if current.own else "too long" if too_long else None
+        )
+        if current.answers is None:
+            return Hearing(current.start_s, end_s, reason=refusal)
+        heard = current.answers.finish()
+        return Hearing(
+            current.start_s, end_s, heard.words, heard.confidence,
+            meaning=None if refusal else heard.meaning, reason=refusal or heard.reason,
+        )  # fmt: skip
+
+
+def stop_latency(code: str, seeds: range, cache: Path) -> list[float | None]:
+    """Seconds from the end of a stop word to the ear's command, per seed (None: not
+    heard); the word is said over the robot's sentence for odd seeds, in quiet else."""
+    commands = Commands(code)
+    return [_one_stop(commands, seed, cache) for seed in seeds]
+
+
+def _one_stop(commands: Commands, seed: int, cache: Path) -> float | None:
+    from speech.audio import read_wav, resample
+    from speech.sources import SimulatedRoom, SimulatedVoice
+    from speech.synthesis import synthesize
+
+    code = commands.recognizer.language.code
+    room = SimulatedRoom(seed)
+    heard: list[float] = []
+    ear = Ear(room, commands=commands, on_command=lambda c, h: heard.append(room.position_s))
+    ear.start()
+    text = "Can you hold the top for me?" if code == "en-us" else "상판을 잡아 줄게요."
+    sentence = read_wav(synthesize(text, code, "espeak", cache).path)
+    samples = resample(sentence.samples, sentence.rate, RATE)
+    span = room.play_robot(samples)
+    ear.robot_speaks(samples, span.start_s)
+    human = SimulatedVoice(code, seed=seed, room=room)
+    stops = COMMAND_WORDS[code][0]
+    human.say_at(stops[seed % len(stops)], span.start_s + 0.3 if seed % 2 else span.end_s + 0.5)
+    said = human.spoken_at
+    assert said is not None
+    while room.position_s < said.end_s + 1.0:
+        threading.Event().wait(BLOCK_S)
+    ear.close()
+    return heard[0] - said.speech_end_s if heard else None
+
+
+if __name__ == "__main__":  # python -m speech.dialogue: how soon "stop" is heard
+    import statistics
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        for lang in ("ko", "en-us"):
+            measured = stop_latency(lang, range(12), Path(folder))
+            times = sorted(t for t in measured if t is not None)
+            print(
+                f"{lang}: stop heard {len(times)}/{len(measured)}; after the end of the "
+                f"word: median {statistics.median(times):.3f} s, worst {times[-1]:.3f} s"
+            )
