@@ -31,6 +31,7 @@ test: $(STAMP) system
 bench: $(STAMP) system
 	$(BIN)/tandem bench
 	$(BIN)/python -m app.benchmark.scaling
+	$(BIN)/python -m app.benchmark.store_scale
 	$(BIN)/python -m app.benchmark.dashboard_benchmark
 	$(BIN)/python -m app.benchmark.page_speed
 	$(BIN)/python -m app.benchmark.screenshots

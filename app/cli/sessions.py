@@ -1,17 +1,33 @@
-"""`tandem sessions list|show|export`: the stored executions."""
+"""`tandem sessions list|show|export`: the stored executions.
+
+`export` writes JSON (the whole session, the default), CSV (the events with their
+times) or MCAP (ROS 2 messages for Foxglove, `app.sessions.mcap_export`); MCAP's
+part poses need the session's scenario, found among the shipped ones by its hash
+or given with `--scenario`.
+"""
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import sys
+from collections.abc import Mapping
 from datetime import date
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
 from app.execution.events import RESULTS
+from app.sessions.export import events_csv
 from app.sessions.store import SessionStore, iso
 from app.sessions.summary import camera_agreement, summary
+
+if TYPE_CHECKING:
+    from app.sessions.mcap_export import PartsAt
+    from planner.scenario.model import Scenario
+
+EXPORT_FORMATS = ("json", "csv", "mcap")
 
 
 def register(parser: argparse.ArgumentParser) -> None:
@@ -23,9 +39,20 @@ def register(parser: argparse.ArgumentParser) -> None:
     listing.add_argument("--since", metavar="YYYY-MM-DD", help="only sessions started that day on")
     show = sub.add_parser("show", help="one session and its events")
     show.add_argument("id", help="session id")
-    export = sub.add_parser("export", help="one session, its events and its plan as JSON")
+    export = sub.add_parser(
+        "export", help="one session: JSON (all of it), CSV (its events) or MCAP (for Foxglove)"
+    )
     export.add_argument("id", help="session id")
-    export.add_argument("-o", "--output", help="write here instead of stdout")
+    export.add_argument(
+        "--format", choices=EXPORT_FORMATS, default="json", help="what to write (default: json)"
+    )
+    export.add_argument("-o", "--output", help="write here instead of stdout (MCAP needs it)")
+    export.add_argument(
+        "--scenario",
+        metavar="FILE",
+        help="MCAP: the session's scenario, for the parts' poses (default: the shipped "
+        "scenario with the session's hash)",
+    )
     for command, handler in ((listing, _list), (show, _show), (export, _export)):
         command.add_argument("--data-dir", help="session store folder")
         command.set_defaults(usage_of=command, run=handler)
@@ -95,14 +122,76 @@ def _show(args: argparse.Namespace) -> int:
 
 def _export(args: argparse.Namespace) -> int:
     session_id = _session_id(args.id)
+    if args.format == "mcap":
+        return _export_mcap(args, session_id)
     with SessionStore(args.data_dir) as store:
-        doc = store.export(session_id)
-    text = json.dumps(doc, indent=1) + "\n"
+        if args.format == "csv":
+            text = events_csv(store.events(session_id))
+        else:
+            text = json.dumps(store.export(session_id), indent=1) + "\n"
     if args.output:
         try:
-            Path(args.output).write_text(text, encoding="utf-8")
+            Path(args.output).write_text(text, encoding="utf-8", newline="")
         except OSError as err:
             raise BadInput(f"{args.output}: cannot write: {err.strerror or err}") from err
     else:
         sys.stdout.write(text)
     return 0
+
+
+def _export_mcap(args: argparse.Namespace, session_id: int) -> int:
+    # Loaded here: listing sessions needs neither the MCAP writer nor the geometry.
+    from app.sessions.mcap_export import SessionRun, write_session
+
+    if not args.output:
+        raise BadInput("--format mcap writes a binary file: give it with -o FILE")
+    with SessionStore(args.data_dir) as store:
+        run = SessionRun.load(store, session_id)
+    scenario = _scenario_of(args.scenario, run.record.scenario_sha256)
+    if scenario is None:
+        print(
+            "no scenario with this session's hash is shipped: the parts' poses (/tf) are "
+            "left out (give the scenario with --scenario FILE)",
+            file=sys.stderr,
+        )
+    parts_at = None if scenario is None else _parts_at(scenario)
+    try:
+        with Path(args.output).open("wb") as out:
+            counts = write_session(out, run, parts_at=parts_at)
+    except OSError as err:
+        raise BadInput(f"{args.output}: cannot write: {err.strerror or err}") from err
+    print(", ".join(f"{topic}: {n}" for topic, n in sorted(counts.items())))
+    return 0
+
+
+def _scenario_of(given: str | None, sha256: str | None) -> Scenario | None:
+    """The scenario file given, else the shipped one whose bytes hash to `sha256`."""
+    from planner.resources import scenario_dir
+    from planner.scenario.loading import ScenarioError, load_scenario
+
+    if given is not None:
+        try:
+            return load_scenario(given)
+        except ScenarioError as err:
+            raise BadInput(str(err)) from None
+    for path in sorted(scenario_dir().rglob("*.toml")):
+        if hashlib.sha256(path.read_bytes()).hexdigest() == sha256:
+            return load_scenario(path)
+    return None
+
+
+def _parts_at(scenario: Scenario) -> PartsAt:
+    """The parts' poses as a node of a plan of `scenario` leaves them, placed as the
+    dashboard's bench draws them."""
+    from app.execution.world import world_at
+    from planner.feasibility.scene import part_boxes, region_extents
+    from planner.plan.model import Plan
+
+    boxes = part_boxes(scenario)
+    human_edge_x = max(hi for _, hi in region_extents(scenario).values())
+
+    def parts_at(plan: Plan, node_id: str) -> Mapping[str, tuple[float, float, float]]:
+        world = world_at(plan.nodes, [node_id], boxes, human_edge_x=human_edge_x)
+        return {part: (p.x, p.y, p.z) for part, p in world.parts.items()}
+
+    return parts_at

@@ -2,12 +2,15 @@
 
 `tandem-session/2`: the session's record, its events (the action as text, the
 evidence in its versioned JSON form with whether a picture is stored) and its
-plan. `exported_event` reads an event back.
+plan. `exported_event` reads an event back. `events_csv` writes the events as a
+table, one row per event (`CSV_COLUMNS`); the MCAP export is in `mcap_export`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import csv
+import io
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 from app.execution.events import ExecutionEvent
@@ -17,6 +20,10 @@ from planner.vocabulary import parse_action
 # /2: events' evidence is the versioned JSON of app.execution.evidence (with "jpeg":
 # whether a picture is stored); /1 had the flat mapping under "detail".
 EXPORT_FORMAT = "tandem-session/2"
+# The CSV export's columns: the event's own fields, its time in epoch seconds.
+CSV_COLUMNS = (
+    "seq", "time", "node", "kind", "action", "outcome", "source", "confidence", "text",
+)  # fmt: skip
 
 
 def event_row(event: ExecutionEvent) -> dict[str, Any]:
@@ -61,3 +68,19 @@ def exported_event(row: Mapping[str, Any]) -> ExecutionEvent:
         text=row["text"],
         evidence=None if evidence is None else Evidence.from_json(evidence),
     )
+
+
+def events_csv(events: Iterable[ExecutionEvent]) -> str:
+    """The events as CSV with a header row: one row per event, `CSV_COLUMNS`; an empty
+    cell for a field with no value, times with all their digits (`repr` of the float)."""
+    out = io.StringIO()
+    writer = csv.DictWriter(out, CSV_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for event in events:
+        row = event_row(event)
+        writer.writerow({column: _cell(row[column]) for column in CSV_COLUMNS})
+    return out.getvalue()
+
+
+def _cell(value: object) -> object:
+    return repr(value) if isinstance(value, float) else value
