@@ -91,3 +91,10 @@ def test_log_lines_are_sentences_with_who_answered() -> None:
     assert "**holding** (by the camera, 93% sure)" in line
     said = ExecutionEvent(1, 0.0, "n1", None, "communication", text="Hello!")
     assert sentence(said) == "`n1` The robot says: “Hello!”"
+
+
+def test_the_dialogues_turns_are_sentences_too() -> None:
+    stop = ExecutionEvent(5, 0.0, "n4", None, "paused", source="voice", text="stop")
+    assert sentence(stop) == "`n4` *The human said stop: the robot stopped.* (heard “stop”)"
+    again = ExecutionEvent(6, 0.0, "n4", None, "asked-again")
+    assert sentence(again) == "`n4` *No answer heard: the robot asks again.*"

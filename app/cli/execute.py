@@ -195,7 +195,7 @@ def _answers(
     calibration: CameraIntrinsics | None,
 ) -> _Answers:
     if args.responses.startswith("voice:"):
-        voice = voice_from_args(args, plan, seed)
+        voice = voice_from_args(args, plan, seed, scenario.human if scenario else None)
         return _Answers(voice.source, narrator=voice.robot)
     if not args.responses.startswith("camera:"):
         return _Answers(make_source(args.responses, seed, plan))

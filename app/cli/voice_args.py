@@ -13,10 +13,11 @@ import sys
 
 from app.cli.exit_codes import BadInput
 from app.execution.narration import Line, plan_language
-from app.responses.voice import VoiceResponses, voice_responses
+from app.responses.voice import DEFAULT_TIMES, VoiceResponses, dialogue_times, voice_responses
 from app.sources.outcomes import RandomSource, ScriptError
 from app.sources.voice import Attempt
 from planner.plan.model import Plan
+from planner.scenario.model import Human
 from speech.devices import NoAudioDevice, play_local
 from speech.languages import UnknownLanguage
 from speech.models import NoSpeechModel
@@ -61,7 +62,11 @@ def print_fallback(node_id: str, reason: str) -> None:
     print(f"{node_id}: no voice answer ({reason}); a seeded choice", file=sys.stderr)
 
 
-def voice_from_args(args: argparse.Namespace, plan: Plan, seed: int | None) -> VoiceResponses:
+def voice_from_args(
+    args: argparse.Namespace, plan: Plan, seed: int | None, human: Human | None = None
+) -> VoiceResponses:
+    """The voice of `--responses voice:...`; the dialogue's times come from the
+    scenario's `[human]` section (`human`; None for a plan file: the defaults)."""
     spec = args.responses[len("voice:") :]
     if not spec:
         raise BadInput("--responses voice:SOURCE: SOURCE is sim, mic or a folder of WAV files")
@@ -80,6 +85,7 @@ def voice_from_args(args: argparse.Namespace, plan: Plan, seed: int | None) -> V
             on_line=LocalSpeakers() if speak == "local" else print_line,
             on_attempt=print_attempt,
             on_fallback=print_fallback,
+            times=dialogue_times(human) if human is not None else DEFAULT_TIMES,
         )
     except (NoSpeechModel, NoAudioDevice, UnknownLanguage, ScriptError) as error:
         raise BadInput(f"--responses {args.responses}: {error}") from error

@@ -29,7 +29,7 @@ from app.dashboard.stage import (
     Stage,
 )
 from app.dashboard.tree_svg import Step, strip_svg
-from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource
+from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, is_step
 from app.execution.repair import Repairer
 from app.execution.retargeting import retargeter_for
 from app.execution.walker import Executor, Listener, Narrator
@@ -244,6 +244,16 @@ class ExecutionPanel:
 
     def _on_event(self, event: ExecutionEvent) -> None:
         # Runs in the executor's thread: a motion takes as long as it is played.
+        if not is_step(event):  # a turn of the dialogue: the log, and a voice pause
+            self._add_line(sentence(event))
+            if event.kind in ("paused", "resumed"):
+                paused = event.kind == "paused"
+                self.pause_button.label = "Resume" if paused else "Pause"
+                self.status.content = (
+                    f"**Paused by voice** (session {self.session_id}): say continue, or **Resume**."
+                    if paused else f"**Running** session {self.session_id}."
+                )  # fmt: skip
+            return
         self._steps.append(Step(event.node, event.source, event.confidence))
         self.stage.go_to(event.node, show_world=event.motion is None)
         self.stage.show_path(tuple(self._steps), event.node)

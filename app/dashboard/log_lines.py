@@ -74,8 +74,22 @@ def answer_words(event: ExecutionEvent) -> str:
     return f" → **{event.outcome}** (by {who}{sure}{heard})"
 
 
+# The dialogue's own turns (app/execution/events.py `DialogueKind`), in words.
+DIALOGUE_WORDS = {
+    "paused": "The human said stop: the robot stopped.",
+    "resumed": "The human said continue: the robot goes on.",
+    "own-voice": "Heard while the robot spoke: its own voice, not an answer.",
+    "too-long": "The human spoke too long for an answer.",
+    "asked-again": "No answer heard: the robot asks again.",
+    "fell-back": "Still no answer by voice: the clicks answer.",
+}
+
+
 def sentence(event: ExecutionEvent) -> str:
     """One line of the log for `event`, with its node id for the tree."""
+    if event.kind in DIALOGUE_WORDS:
+        heard = f" (heard “{event.text}”)" if event.text else ""
+        return f"`{event.node}` *{DIALOGUE_WORDS[event.kind]}*{heard}"
     if event.kind == "repair":
         words = event.text or "The robot plans again from what it saw."
     elif event.kind == "interrupted":
