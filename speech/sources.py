@@ -271,7 +271,7 @@ class MicrophoneSource:
 
     BLOCK_S = 0.03
 
-    def __init__(self, start_db: float = 12.0, pause_s: float = 0.35, max_s: float = 8.0) -> None:
+    def __init__(self, start_db: float = 12.0, pause_s: float = 0.2, max_s: float = 8.0) -> None:
         self.device = microphone()
         self._sd = require_device("input", self.device)
         self.start_db = start_db

@@ -234,7 +234,7 @@ def test_an_utterance_over_the_maximum_is_refused_as_too_long(
 
 def test_the_dialogue_times_are_the_human_sections() -> None:
     human = Human()
-    assert dialogue_times(human) == DialogueTimes(5.0, 0.35, 5.0)
+    assert dialogue_times(human) == DialogueTimes(5.0, 0.2, 5.0)
     assert dialogue_times(Human(no_speech_s=8, max_utterance_s=15.0)).max_utterance_s == 15.0
     with pytest.raises(ValidationError, match="end_of_speech_s"):
         Human(end_of_speech_s=2.0, max_utterance_s=1.5)

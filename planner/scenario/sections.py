@@ -97,13 +97,27 @@ DEFAULT_LANGUAGE: Language = "en-us"
 
 # The voice dialogue's times, in seconds (speech.dialogue.DialogueTimes says why):
 # how long the robot waits for an answer to begin (Furhat's SDK also waits 5 s),
-# the silence that ends an answer (not Furhat's 0.8 s: 0.7 s measured 0.8 s from the
-# end of speech to the answer, over the 0.5 s target; answers have no pause inside), and
+# the silence that ends an answer (not Furhat's 0.8 s: answers have no pause inside, and
+# 0.2 s takes the decision within 0.3 s of the end of speech, the same answers heard), and
 # the longest utterance taken as an answer (one to three words last under 1.5 s;
 # Furhat's 15 s is for open questions and would only delay asking again).
 DEFAULT_NO_SPEECH_S = 5.0
-DEFAULT_END_OF_SPEECH_S = 0.35
+DEFAULT_END_OF_SPEECH_S = 0.2
 DEFAULT_MAX_UTTERANCE_S = 5.0
+
+
+# The simulated human's times (app.execution.timing), lognormal: a median in seconds
+# and the spread of its log. Assumed, none measured with this bench: `react`, from a
+# request's end to the human starting, a choice reaction time to a spoken request
+# (about 0.5 to 1 s in the reaction-time literature); `attach`, screwing a leg or foot
+# in by hand (assumed 8 s, ± 35 %); `unhold`, putting a part down (assumed 1.5 s);
+# `answer`, from a question's end to the answer's end: a turn gap (about 0.2 s between
+# people, Stivers et al. 2009, PNAS 106(26)) plus saying "yes" or "no", taken longer
+# (1 s) for a robot partner.
+DEFAULT_REACT_S, DEFAULT_REACT_SIGMA = 0.8, 0.3
+DEFAULT_ATTACH_S, DEFAULT_ATTACH_SIGMA = 8.0, 0.35
+DEFAULT_UNHOLD_S, DEFAULT_UNHOLD_SIGMA = 1.5, 0.3
+DEFAULT_ANSWER_S, DEFAULT_ANSWER_SIGMA = 1.0, 0.4
 
 
 class Human(StrictModel):
@@ -113,6 +127,14 @@ class Human(StrictModel):
     no_speech_s: float = Field(default=DEFAULT_NO_SPEECH_S, ge=1.0, le=60.0)
     end_of_speech_s: float = Field(default=DEFAULT_END_OF_SPEECH_S, ge=0.1, le=3.0)
     max_utterance_s: float = Field(default=DEFAULT_MAX_UTTERANCE_S, ge=1.0, le=60.0)
+    react_s: float = Field(default=DEFAULT_REACT_S, gt=0.0, le=60.0)
+    react_sigma: float = Field(default=DEFAULT_REACT_SIGMA, ge=0.0, le=2.0)
+    attach_s: float = Field(default=DEFAULT_ATTACH_S, gt=0.0, le=600.0)
+    attach_sigma: float = Field(default=DEFAULT_ATTACH_SIGMA, ge=0.0, le=2.0)
+    unhold_s: float = Field(default=DEFAULT_UNHOLD_S, gt=0.0, le=600.0)
+    unhold_sigma: float = Field(default=DEFAULT_UNHOLD_SIGMA, ge=0.0, le=2.0)
+    answer_s: float = Field(default=DEFAULT_ANSWER_S, gt=0.0, le=60.0)
+    answer_sigma: float = Field(default=DEFAULT_ANSWER_SIGMA, ge=0.0, le=2.0)
 
     @model_validator(mode="after")
     def _pause_within_an_utterance(self) -> Human:
