@@ -23,7 +23,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from app.execution.events import DIALOGUE_KINDS, INTERRUPTED, ExecutionEvent
+from app.execution.events import ExecutionEvent, is_step
 from app.sessions.mcap_export import SessionRun, write_session
 from app.sessions.store import SessionStore
 from planner.feasibility.arms import joint_names
@@ -171,7 +171,7 @@ def test_joint_states_follow_each_motion_between_its_event_and_the_next(
 
 def test_the_parts_poses_per_step(exported: dict[int, Decoded], data_dir: Path) -> None:
     events, run = stored(data_dir, 1)
-    steps = [e for e in events if e.kind != INTERRUPTED and e.kind not in DIALOGUE_KINDS]
+    steps = [e for e in events if is_step(e)]
     frames = exported[1].messages["/tf"]
     assert len(frames) == len(steps)
     boxes = part_boxes(load_scenario(SCENARIO))
@@ -253,12 +253,15 @@ def test_the_csv_has_one_row_per_event(data_dir: Path, session: int) -> None:
     text = export(data_dir, session, "--format", "csv").stdout
     rows = list(csv.DictReader(io.StringIO(text)))
     assert list(rows[0]) == [
-        "seq", "time", "node", "kind", "action", "outcome", "source", "confidence", "text",
+        "seq", "time", "start", "end", "node", "kind", "action", "outcome", "source",
+        "confidence", "text",
     ]  # fmt: skip
     assert len(rows) == len(events)
     for row, event in zip(rows, events, strict=True):
         assert int(row["seq"]) == event.seq
         assert float(row["time"]) == event.time  # every digit kept
+        for column, value in (("start", event.start), ("end", event.end)):
+            assert (None if row[column] == "" else float(row[column])) == value
         assert (row["node"], row["kind"]) == (event.node, event.kind)
         assert row["action"] == ("" if event.action is None else str(event.action))
         assert row["outcome"] == (event.outcome or "")

@@ -17,6 +17,7 @@ from app.cli.voice_args import voice_from_args
 from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, Result
 from app.execution.repair import Repairer
 from app.execution.retargeting import retargeter_for
+from app.execution.timing import SimulatedTimeline
 from app.execution.walker import Executor, Listener, Narrator
 from app.sessions.store import SessionStore
 from app.sources.outcomes import (
@@ -215,6 +216,18 @@ def _answers(
     return _Answers(source, listeners=list(camera.listeners), close=camera.close)
 
 
+def _timeline(
+    args: argparse.Namespace, seed: int | None, scenario: Scenario | None
+) -> SimulatedTimeline | None:
+    """Headless runs answered without a live camera or voice, at no step delay, run
+    on a simulated clock (fast, the same for a seed); the others on the wall's."""
+    spec = str(args.responses)
+    live = spec.startswith("voice:") or (spec.startswith("camera:") and spec != "camera:sim")
+    if live or args.step_delay > 0:
+        return None
+    return SimulatedTimeline(seed or 0, scenario.human if scenario is not None else None)
+
+
 def run(args: argparse.Namespace) -> int:
     by_voice, seeded = _check(args)
     calibration = _calibration(args)  # before planning: a bad file is said at once
@@ -241,6 +254,7 @@ def run(args: argparse.Namespace) -> int:
             repairing=repairing,
             # The slot the human used moves later motions: the motion planner re-targets them.
             retarget=retargeter_for(scenario, plan),
+            timeline=_timeline(args, seed, scenario),
         )
         result = _run_until_stopped(executor)
         store.finish(session_id, result)

@@ -30,6 +30,7 @@ from app.cli import (
     say,
     scenario,
     sessions,
+    study,
     sweep,
     track,
 )
@@ -47,6 +48,7 @@ SUBCOMMANDS: list[tuple[str, str, Register]] = [
     ("dashboard", "the browser dashboard: bench, planning, plan tree", dashboard.register),
     ("execute", "run a plan, one branch", execute.register),
     ("sessions", "stored executions", sessions.register),
+    ("study", "simulated participants over conditions: sessions, CSV and figure", study.register),
     ("markers", "the printable QR codes of a scenario's parts and bench", markers.register),
     ("camera", "camera set-up: calibrate", camera.register),
     ("track", "what the camera sees: each part's placement as it changes", track.register),

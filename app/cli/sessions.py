@@ -1,16 +1,22 @@
-"""`tandem sessions list|show|export`: the stored executions.
+"""`tandem sessions list|show|export|metrics`: the stored executions.
 
 `export` writes JSON (the whole session, the default), CSV (the events with their
 times) or MCAP (ROS 2 messages for Foxglove, `app.sessions.mcap_export`); MCAP's
 part poses need the session's scenario, found among the shipped ones by its hash
-or given with `--scenario`.
+or given with `--scenario`. `metrics` writes each session's measures
+(`app.sessions.metrics`) as CSV (the default) or JSON, of one session or of all
+those of a scenario or of a study (tagged in the store's `study_sessions` table).
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import hashlib
+import importlib.util
+import io
 import json
+import sqlite3
 import sys
 from collections.abc import Mapping
 from datetime import date
@@ -20,6 +26,7 @@ from typing import TYPE_CHECKING
 from app.cli.exit_codes import BadInput
 from app.execution.events import RESULTS
 from app.sessions.export import events_csv
+from app.sessions.metrics import METRIC_KEYS, session_metrics
 from app.sessions.store import SessionStore, iso
 from app.sessions.summary import camera_agreement, summary
 
@@ -53,7 +60,16 @@ def register(parser: argparse.ArgumentParser) -> None:
         help="MCAP: the session's scenario, for the parts' poses (default: the shipped "
         "scenario with the session's hash)",
     )
-    for command, handler in ((listing, _list), (show, _show), (export, _export)):
+    metrics = sub.add_parser(
+        "metrics", help="sessions' measures (fluency, questions, agreement): CSV or JSON"
+    )
+    metrics.add_argument("id", nargs="?", help="one session (default: all, as filtered)")
+    metrics.add_argument("--scenario", help="only this scenario")
+    metrics.add_argument("--study", metavar="NAME", help="only the sessions of this study")
+    metrics.add_argument("--json", action="store_true", help="as a JSON list")
+    metrics.add_argument("-o", "--output", metavar="FILE", help="write here instead of stdout")
+    handlers = ((listing, _list), (show, _show), (export, _export), (metrics, _metrics))
+    for command, handler in handlers:
         command.add_argument("--data-dir", help="session store folder")
         command.set_defaults(usage_of=command, run=handler)
 
@@ -137,6 +153,61 @@ def _export(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(text)
     return 0
+
+
+# The columns before the measures in `metrics`' rows: which session they are of.
+SESSION_COLUMNS = ("session", "scenario", "result")
+
+
+def _metrics(args: argparse.Namespace) -> int:
+    with SessionStore(args.data_dir, read_only=True) as store:
+        if args.id is not None:
+            sessions = [store.get(_session_id(args.id))]
+        else:
+            sessions = store.list_sessions(scenario=args.scenario)
+        if args.study is not None:
+            tagged = _study_session_ids(store, args.study)
+            sessions = [s for s in sessions if s.id in tagged]
+        rows = [
+            {
+                "session": s.id, "scenario": s.scenario, "result": s.result,
+                **session_metrics(store.events(s.id)).row(),
+            }
+            for s in sessions
+        ]  # fmt: skip
+    if args.json:
+        text = json.dumps(rows, indent=1) + "\n"
+    else:
+        out = io.StringIO()
+        writer = csv.DictWriter(out, (*SESSION_COLUMNS, *METRIC_KEYS), lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+        text = out.getvalue()
+    if args.output:
+        try:
+            Path(args.output).write_text(text, encoding="utf-8", newline="")
+        except OSError as err:
+            raise BadInput(f"{args.output}: cannot write: {err.strerror or err}") from err
+        print(f"{len(rows)} sessions: {args.output}")
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def _study_session_ids(store: SessionStore, study: str) -> set[int]:
+    """The ids of the sessions tagged with `study`; no such study (nor any study
+    support, nor a table of tags in this store) is a `BadInput`."""
+    if importlib.util.find_spec("app.sessions.studies") is None:
+        raise BadInput(f"--study {study}: no such study (this installation runs no studies)")
+    try:
+        rows = store.db.execute(
+            "select session_id from study_sessions where study = ?", [study]
+        ).fetchall()
+    except sqlite3.OperationalError:  # no study ever ran on this store
+        rows = []
+    if not rows:
+        raise BadInput(f"--study {study}: no such study in {store.db_path}")
+    return {row[0] for row in rows}
 
 
 def _export_mcap(args: argparse.Namespace, session_id: int) -> int:

@@ -90,6 +90,8 @@ def sentence(event: ExecutionEvent) -> str:
     if event.kind in DIALOGUE_WORDS:
         heard = f" (heard “{event.text}”)" if event.text else ""
         return f"`{event.node}` *{DIALOGUE_WORDS[event.kind]}*{heard}"
+    if event.kind == "human":  # the simulated human's own action, in a timed run
+        return f"`{event.node}` *The human: {event.text or 'acts'}.*"
     if event.kind == "repair":
         words = event.text or "The robot plans again from what it saw."
     elif event.kind == "interrupted":

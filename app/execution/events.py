@@ -41,13 +41,17 @@ DIALOGUE_KINDS: tuple[DialogueKind, ...] = get_args(DialogueKind)
 # What an event is: the kind of the plan node run, or one of the execution's own.
 # `repair`: the execution changed plans after a surprise (its evidence says which);
 # `interrupted`: the walk stopped at this node for the reason in its text (the
-# program stopping, not a step of the plan); or one of the dialogue's.
+# program stopping, not a step of the plan); `human`: the simulated human's task
+# action started by the node (a request), timed in a simulated run; or one of the
+# dialogue's.
 EventKind = Literal[
-    "actuation", "sensing", "communication", "goal", "repair", "interrupted", DialogueKind
-]
+    "actuation", "sensing", "communication", "goal", "repair", "interrupted", "human",
+    DialogueKind,
+]  # fmt: skip
 EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
 REPAIR: EventKind = "repair"
 INTERRUPTED: EventKind = "interrupted"
+HUMAN: EventKind = "human"
 # Who answered a branching node: a click in the dashboard, the console's numbered
 # choices, a seeded random choice, a script, the planner's hoped outcome, the
 # camera or the voice.
@@ -118,6 +122,10 @@ class ExecutionEvent:
     stood at, saying why (it is not a step of the plan).
     `evidence` is what decided the answer (a camera frame, the words heard),
     stored beside the event.
+    `start`/`end` (epoch seconds, simulated in a headless run) are when the step
+    began and ended: a question until its answer, a `human` event the human's
+    action; None in a session stored before events were timed. `time` is when the
+    event was recorded, its `end` in a timed session.
     """
 
     seq: int
@@ -132,6 +140,9 @@ class ExecutionEvent:
     motion: Motion | None = field(default=None, compare=False, repr=False)
     evidence: Evidence | None = field(default=None, compare=False, repr=False)
     plan: Plan | None = field(default=None, compare=False, repr=False)  # a repair's new plan
+    # Not compared: the JSON export does not carry them yet, and reads back as equal.
+    start: float | None = field(default=None, compare=False)
+    end: float | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
@@ -146,8 +157,8 @@ class Waypoint:
 
 def is_step(event: ExecutionEvent) -> bool:
     """Whether `event` is a step along the plan (a node run, or a change of plans), not
-    an interruption or a turn of the dialogue."""
-    return event.kind != INTERRUPTED and event.kind not in DIALOGUE_KINDS
+    an interruption, the human's own action or a turn of the dialogue."""
+    return event.kind not in (INTERRUPTED, HUMAN) and event.kind not in DIALOGUE_KINDS
 
 
 def describe(action: Action | None, label: str | None) -> str:

@@ -15,6 +15,10 @@ motion takes time and a pause stops it at its next waypoint. A source with
 `attach`/`detach` is handed the executor while it runs (the voice pauses it on
 "stop" and keeps the dialogue's turns with `note`, from its own thread).
 
+Every event has a `start` and an `end` from the `timeline` (`app.execution.timing`):
+the wall clock by default, or a simulated one in which a request starts the
+simulated human's own action (an event of kind `human`) while the robot goes on.
+
 Slots follow the world: what the human's and the robot's slot choices change
 (the slot map, re-targeted motions, a surprise where the plan counts on a point)
 is `app.execution.slots`, which the walk asks once per node.
@@ -47,6 +51,7 @@ from app.execution.events import (
 from app.execution.evidence import Evidence, Replanned, merged
 from app.execution.slots import Retarget, Slots
 from app.execution.surprises import Surprise, SurpriseError
+from app.execution.timing import Timeline, WallTimeline
 from planner.plan.model import Motion, Plan, PlanNode
 
 __all__ = ["INTERRUPTED", "Executor", "Listener", "Narrator", "Repairing", "Retarget", "Waypoint"]
@@ -101,8 +106,10 @@ class Executor:
         repairing: Repairing | None = None,
         retarget: Retarget | None = None,
         waypoint_s: float = 0.0,
+        timeline: Timeline | None = None,
     ) -> None:
         self.plan = plan
+        self.timeline: Timeline = timeline if timeline is not None else WallTimeline()
         self.slots = Slots(plan, retarget, replans=repairing is not None)
         self.narrator = narrator
         self.repairing = repairing
@@ -256,6 +263,7 @@ class Executor:
 
     def _step(self, node_id: str, node: PlanNode) -> _Next | Result:
         """Runs one node: where the walk goes next, or how it ended."""
+        self.timeline.begin(node)
         if node.kind == "goal":
             self._emit(node_id, node, text="The table is assembled.")
             return "goal"
@@ -274,9 +282,8 @@ class Executor:
         or what it says."""
         text = node.say if node.kind == "communication" else None
         step = self.slots.at(node_id, node, None)
-        self._emit(
-            node_id, node, text=text, motion=step.motion, evidence=merged(spoken, step.evidence)
-        )
+        evidence = merged(spoken, step.evidence)
+        self._emit(node_id, node, text=text, motion=step.motion, spoken=spoken, evidence=evidence)
         if step.motion is not None and self.waypoint_s > 0:
             self._move(node_id, step.motion)
         return _Next(node.children[0].node)
@@ -294,6 +301,7 @@ class Executor:
         self._emit(
             node_id,
             node,
+            spoken=spoken,
             outcome=outcome.label,
             source=outcome.source,
             confidence=outcome.confidence,
@@ -421,9 +429,13 @@ class Executor:
         return self._record(replace(event, evidence=evidence))
 
     def _record(self, event: ExecutionEvent) -> ExecutionEvent:
-        """`event`, numbered and timed now, kept and told to the listeners in order."""
+        """`event`, numbered and timed (now, when it has no times of its own), kept and
+        told to the listeners in order."""
         with self._recording:
-            event = replace(event, seq=len(self.events), time=time.time())
+            now = self.timeline.now()
+            start = now if event.start is None else event.start
+            end = now if event.end is None else event.end
+            event = replace(event, seq=len(self.events), time=end, start=start, end=end)
             self.events.append(event)
             for listener in self.listeners:
                 listener(event)
@@ -434,6 +446,7 @@ class Executor:
         node_id: str,
         node: PlanNode,
         *,
+        spoken: Evidence | None = None,
         outcome: str | None = None,
         source: AnswerSource | None = None,
         confidence: float | None = None,
@@ -441,9 +454,16 @@ class Executor:
         motion: Motion | None = None,
         evidence: Evidence | None = None,
     ) -> None:
+        """Records the step at `node`, timed from its `begin`, then the human's action it
+        starts, if any."""
+        start, end = self.timeline.finish(node, spoken, motion)
         self._record(
             ExecutionEvent(
                 0, 0.0, node_id, node.action, _event_kind(node), outcome=outcome, source=source,
                 confidence=confidence, text=text, motion=motion, evidence=evidence,
+                start=start, end=end,
             )
         )  # fmt: skip
+        human = self.timeline.human_event(node_id, node, outcome, end)
+        if human is not None:
+            self._record(human)

@@ -22,7 +22,8 @@ from planner.vocabulary import parse_action
 EXPORT_FORMAT = "tandem-session/2"
 # The CSV export's columns: the event's own fields, its time in epoch seconds.
 CSV_COLUMNS = (
-    "seq", "time", "node", "kind", "action", "outcome", "source", "confidence", "text",
+    "seq", "time", "start", "end", "node", "kind", "action", "outcome", "source",
+    "confidence", "text",
 )  # fmt: skip
 
 
@@ -47,6 +48,8 @@ def export_event(event: ExecutionEvent) -> dict[str, Any]:
     evidence = event.evidence
     return {
         **event_row(event),
+        "start": event.start,  # when the step began and ended (None: untimed)
+        "end": event.end,
         "evidence": (
             None if evidence is None else {**evidence.to_json(), "jpeg": evidence.jpeg is not None}
         ),
@@ -67,6 +70,8 @@ def exported_event(row: Mapping[str, Any]) -> ExecutionEvent:
         confidence=row["confidence"],
         text=row["text"],
         evidence=None if evidence is None else Evidence.from_json(evidence),
+        start=row.get("start"),
+        end=row.get("end"),
     )
 
 
@@ -77,7 +82,7 @@ def events_csv(events: Iterable[ExecutionEvent]) -> str:
     writer = csv.DictWriter(out, CSV_COLUMNS, lineterminator="\n")
     writer.writeheader()
     for event in events:
-        row = event_row(event)
+        row = {**event_row(event), "start": event.start, "end": event.end}
         writer.writerow({column: _cell(row[column]) for column in CSV_COLUMNS})
     return out.getvalue()
 

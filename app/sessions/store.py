@@ -2,7 +2,8 @@
 
 `plans` holds each plan once, keyed by the sha256 of its canonical JSON;
 `sessions` one row per execution; `events` every step, committed as it
-happens (with `evidence`, what decided an answer: a JPEG of the camera's
+happens (with its `started` and `ended` times, null in a store older than them:
+an untimed session) (with `evidence`, what decided an answer: a JPEG of the camera's
 frame, the words heard), so a session killed half-way keeps all it did. A session left
 without an end by a process that is gone is marked "interrupted" the next
 time the store is opened.
@@ -32,6 +33,7 @@ from app.execution.evidence import Evidence
 from app.sessions.database import StoreError, open_database, unusable
 from app.sessions.export import EXPORT_FORMAT, event_row, export_event
 from app.sessions.processes import boot_id, owner_alive
+from app.sessions.studies import ensure_table
 from planner.plan.model import Plan
 from planner.vocabulary import parse_action
 
@@ -41,6 +43,8 @@ from planner.vocabulary import parse_action
 _KNOWN_PLANS = 8
 
 DB_NAME = "sessions.db"
+# The events' own columns for when a step began and ended (`ExecutionEvent.start`/`end`).
+EVENT_TIMES = ("started", "ended")
 
 
 class UnknownSession(KeyError):
@@ -185,11 +189,17 @@ class SessionStore:
                 "source": str,
                 "confidence": float,
                 "text": str,
+                "started": float,
+                "ended": float,
             },
             pk=("session_id", "seq"),
             foreign_keys=[("session_id", "sessions", "id")],
             if_not_exists=True,
         )
+        events = _table(db, "events")
+        for column in EVENT_TIMES:  # a store older than timed events gets them, null
+            if column not in events.columns_dict:
+                events.add_column(column, float)
         _table(db, "evidence").create(
             {"session_id": int, "seq": int, "detail": str, "jpeg": bytes},
             pk=("session_id", "seq"),
@@ -197,6 +207,7 @@ class SessionStore:
             if_not_exists=True,
         )
         _table(db, "sessions").create_index(["started"], if_not_exists=True)
+        ensure_table(db)  # the studies' tags (tandem study), so every store has them
 
     # -- writing ----------------------------------------------------------------
 
@@ -247,7 +258,10 @@ class SessionStore:
 
     def record(self, session_id: int, event: ExecutionEvent) -> None:
         """Stores one event; committed before this returns."""
-        row = {"session_id": session_id, **event_row(event)}
+        row = {
+            "session_id": session_id, **event_row(event), "started": event.start,
+            "ended": event.end,
+        }  # fmt: skip
         evidence = event.evidence
         with self._writing(), self.db.conn:
             # One transaction: an answer is never stored without what decided it.
@@ -354,6 +368,8 @@ class SessionStore:
                 source=r["source"],
                 confidence=r["confidence"],
                 text=r["text"],
+                start=r.get("started"),  # absent in a store opened read-only before timing
+                end=r.get("ended"),
                 evidence=(
                     Evidence.from_json(json.loads(r["evidence_detail"] or "{}"), r["evidence_jpeg"])
                     if r["has_evidence"]

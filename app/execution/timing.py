@@ -1,0 +1,267 @@
+"""When each event of an execution starts and ends: the wall clock, or a simulated one.
+
+Real runs (a camera, a voice, the dashboard) keep the wall clock
+(`WallTimeline`): an event starts when the executor reaches its node and ends
+when it is recorded. Headless runs simulate time (`SimulatedTimeline`): no
+sleeping, the same session for the same seed. There a robot action lasts as
+long as its motion takes, each segment of the joint path at the speed of the
+joint that needs longest at `SPEED_RATIO` of Baxter's joint velocity limits (read
+from the URDF the feasibility checks load; `BAXTER_VELOCITY_LIMITS` if missing); a
+spoken line as long as its audio (`Spoken.duration_s`) or, without audio, its
+words at espeak-ng's default rate; a sensing action `CAMERA_SETTLE_S`; a
+question until its answer. The simulated human reacts to a request after a
+seeded delay, then acts for a seeded duration (each a `Pace` the scenario's
+[human] section sets) while the robot goes on; a sensing node that watches the
+human waits until it is done. The simulated clock leaves out the time planning
+again takes, which no seed fixes.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import cache
+from typing import Literal, Protocol, get_args
+from xml.etree import ElementTree
+
+from app.execution.events import HUMAN, ExecutionEvent
+from app.execution.evidence import Evidence
+from planner.plan.model import Motion, PlanNode
+from planner.scenario.sections import Human
+from planner.vocabulary import (
+    AskHelp,
+    ConfirmAttach,
+    RequestToAttach,
+    RequestToUnhold,
+    SenseHumanAttachingWhere,
+    SenseHumanHolding,
+    SenseHumanHoldingWhichPart,
+    SenseHumanUnholding,
+)
+
+# Baxter's joint velocity limits in rad/s, as example-robot-data's baxter.urdf gives
+# them (the same for both arms): shoulders and elbows 1.5, wrists 4.0.
+BAXTER_VELOCITY_LIMITS: Mapping[str, float] = {
+    "s0": 1.5, "s1": 1.5, "e0": 1.5, "e1": 1.5, "w0": 4.0, "w1": 4.0, "w2": 4.0,
+}  # fmt: skip
+# The share of those limits a motion runs at: baxter_interface's default joint position
+# speed ratio (`Limb.set_joint_position_speed`, 0.3), which Baxter's own motions use.
+SPEED_RATIO = 0.3
+# An actuation node without a joint path (a plan made without geometry): assumed.
+ACTUATION_WITHOUT_PATH_S = 2.0
+# The camera settling on the bench after something moved: a sensing action's time
+# (30 frames at 30 fps: a frame with no motion blur and a stable reading; assumed).
+CAMERA_SETTLE_S = 1.0
+# espeak-ng's default rate is 175 words a minute: a spoken line without audio lasts
+# its words at that rate.
+SPEECH_WORDS_PER_S = 175 / 60
+
+# What the simulated human does in its own time: reacting to a request, attaching a
+# part, putting a part down, and answering a question (from the question's end).
+HumanActivity = Literal["react", "attach", "unhold", "answer"]
+HUMAN_ACTIVITIES: tuple[HumanActivity, ...] = get_args(HumanActivity)
+# The human's task actions in the text of their events (of kind `human`).
+HUMAN_ACTION_WORDS: Mapping[HumanActivity, str] = {
+    "attach": "the human attaches the part",
+    "unhold": "the human puts the part down",
+}
+
+
+@dataclass(frozen=True)
+class Pace:
+    """A lognormal duration: `median_s` seconds, `sigma` the spread of its log."""
+
+    median_s: float
+    sigma: float
+
+    def draw(self, rng: random.Random) -> float:
+        return self.median_s * math.exp(self.sigma * rng.gauss(0.0, 1.0))
+
+
+def paces_of(human: Human) -> dict[HumanActivity, Pace]:
+    """The paces the scenario's [human] section sets (its defaults say where from)."""
+    return {
+        "react": Pace(human.react_s, human.react_sigma),
+        "attach": Pace(human.attach_s, human.attach_sigma),
+        "unhold": Pace(human.unhold_s, human.unhold_sigma),
+        "answer": Pace(human.answer_s, human.answer_sigma),
+    }
+
+
+DEFAULT_PACES: Mapping[HumanActivity, Pace] = paces_of(Human())
+
+
+@cache
+def joint_velocity_limits() -> Mapping[str, float]:
+    """Each arm joint's velocity limit (rad/s) by its URDF name, from baxter.urdf;
+    `BAXTER_VELOCITY_LIMITS` for both arms when the robot model is not installed."""
+    from planner.feasibility.robot import RobotModelMissing, baxter_urdf
+
+    fallback = {f"{a}_{j}": v for a in ("left", "right") for j, v in BAXTER_VELOCITY_LIMITS.items()}
+    try:
+        root = ElementTree.parse(baxter_urdf()).getroot()
+    except (RobotModelMissing, OSError, ElementTree.ParseError):
+        return fallback
+    limits = dict(fallback)
+    for joint in root.iter("joint"):
+        limit, name = joint.find("limit"), joint.get("name", "")
+        if limit is not None and name in fallback and limit.get("velocity"):
+            limits[name] = float(limit.get("velocity", "0")) or fallback[name]
+    return limits
+
+
+def motion_seconds(motion: Motion | None) -> float:
+    """How long the arm takes along `motion`'s path: each segment as long as its
+    slowest joint needs at `SPEED_RATIO` of its velocity limit (a path is fine enough
+    that the arm does not stop between waypoints)."""
+    if motion is None or len(motion.path) < 2:
+        return ACTUATION_WITHOUT_PATH_S
+    limits = joint_velocity_limits()
+    slowest = min(BAXTER_VELOCITY_LIMITS.values())
+    speeds = [SPEED_RATIO * limits.get(name, slowest) for name in motion.joints]
+    total = 0.0
+    for a, b in zip(motion.path, motion.path[1:], strict=False):
+        total += max(abs(y - x) / v for x, y, v in zip(a, b, speeds, strict=False))
+    return total
+
+
+def speech_seconds(text: str | None, spoken: Evidence | None) -> float:
+    """How long a spoken line lasts: its audio, or its words at espeak-ng's rate."""
+    said = spoken.spoken if spoken is not None else None
+    if said is not None and said.duration_s is not None:
+        return said.duration_s
+    return len((text or "").split()) / SPEECH_WORDS_PER_S
+
+
+def human_activity(node: PlanNode, outcome: str | None) -> HumanActivity | None:
+    """The task action the human starts after `node`: what a request asks, or agreeing
+    to attach (a "yes" to askHelp or confirmAttach)."""
+    match node.action:
+        case RequestToAttach():
+            return "attach"
+        case RequestToUnhold():
+            return "unhold"
+        case AskHelp() | ConfirmAttach() if outcome == "yes":
+            return "attach"
+    return None
+
+
+def watches_human(node: PlanNode) -> bool:
+    return isinstance(
+        node.action,
+        SenseHumanHolding | SenseHumanHoldingWhichPart | SenseHumanUnholding
+        | SenseHumanAttachingWhere,
+    )  # fmt: skip
+
+
+class Timeline(Protocol):
+    """The times of a walk's events; `simulated` when no time really passes."""
+
+    simulated: bool
+
+    def begin(self, node: PlanNode) -> float:
+        """When the robot starts `node` (after waiting for the human, if it must)."""
+        ...
+
+    def finish(
+        self, node: PlanNode, spoken: Evidence | None, motion: Motion | None
+    ) -> tuple[float, float]:
+        """When the node last begun started and ends."""
+        ...
+
+    def human_event(
+        self, node_id: str, node: PlanNode, outcome: str | None, after: float
+    ) -> ExecutionEvent | None:
+        """The task action the human starts after `node` (which ended at `after`, with
+        `outcome`), as an event to record (only in a simulated run)."""
+        ...
+
+    def now(self) -> float:
+        """The time of an event that takes none (a turn of the dialogue, a stop)."""
+        ...
+
+
+class WallTimeline:
+    """The wall clock: events start when reached and end when recorded."""
+
+    simulated = False
+
+    def __init__(self) -> None:
+        self.started = time.time()
+
+    def begin(self, node: PlanNode) -> float:
+        self.started = time.time()
+        return self.started
+
+    def finish(
+        self, node: PlanNode, spoken: Evidence | None, motion: Motion | None
+    ) -> tuple[float, float]:
+        return self.started, max(self.started, time.time())
+
+    def human_event(
+        self, node_id: str, node: PlanNode, outcome: str | None, after: float
+    ) -> ExecutionEvent | None:
+        return None  # a real human's actions are not timed by the robot
+
+    def now(self) -> float:
+        return time.time()
+
+
+class SimulatedTimeline:
+    """A simulated clock for the robot and the human, from `origin` (epoch seconds;
+    now by default); the human's times are drawn, seeded by `seed`, from the paces of
+    the scenario's [human] section (its defaults without one)."""
+
+    simulated = True
+
+    def __init__(
+        self,
+        seed: int,
+        human: Human | None = None,
+        origin: float | None = None,
+    ) -> None:
+        self.paces = paces_of(human) if human is not None else dict(DEFAULT_PACES)
+        self.rng = random.Random(seed)
+        self.robot_free = time.time() if origin is None else origin
+        self.human_free = self.robot_free  # when the human's last task action ends
+
+    def begin(self, node: PlanNode) -> float:
+        if node.kind == "sensing" and watches_human(node):
+            self.robot_free = max(self.robot_free, self.human_free)
+        return self.robot_free
+
+    def finish(
+        self, node: PlanNode, spoken: Evidence | None, motion: Motion | None
+    ) -> tuple[float, float]:
+        start, seconds = self.robot_free, 0.0
+        if node.kind == "actuation":
+            seconds = motion_seconds(motion)
+        elif node.kind == "sensing":
+            seconds = CAMERA_SETTLE_S
+        elif node.kind == "communication":
+            seconds = speech_seconds(node.say, spoken)
+            if node.outcomes:  # a question lasts until the answer
+                seconds += self.paces["answer"].draw(self.rng)
+        self.robot_free = start + seconds
+        return start, self.robot_free
+
+    def human_event(
+        self, node_id: str, node: PlanNode, outcome: str | None, after: float
+    ) -> ExecutionEvent | None:
+        activity = human_activity(node, outcome)
+        if activity is None:
+            return None
+        # The human reacts, then acts, once done with what it was doing.
+        start = max(after + self.paces["react"].draw(self.rng), self.human_free)
+        self.human_free = start + self.paces[activity].draw(self.rng)
+        words = f"{HUMAN_ACTION_WORDS[activity]}, as asked at {node.action}"
+        return ExecutionEvent(
+            0, self.human_free, node_id, node.action, HUMAN, text=words, start=start,
+            end=self.human_free,
+        )  # fmt: skip
+
+    def now(self) -> float:
+        return self.robot_free
