@@ -41,6 +41,10 @@ bench: $(STAMP) system
 	$(BIN)/python -m speech.bench
 	$(BIN)/python -m app.benchmark.soak --pages 5 --minutes $(SOAK_MINUTES)
 
+# A study day's hour of the soak: five pages, one replaced every four executions.
+soak-hour: $(STAMP) system
+	$(BIN)/python -m app.benchmark.soak --pages 5 --minutes 60
+
 # The dashboard's screenshots (docs/screenshots), taken in headless chromium.
 screenshots: $(STAMP) system
 	$(BIN)/python -m app.benchmark.screenshots

@@ -98,3 +98,24 @@ def test_the_dialogues_turns_are_sentences_too() -> None:
     assert sentence(stop) == "`n4` *The human said stop: the robot stopped.* (heard “stop”)"
     again = ExecutionEvent(6, 0.0, "n4", None, "asked-again")
     assert sentence(again) == "`n4` *No answer heard: the robot asks again.*"
+
+
+def test_a_timed_session_on_lanes_with_who_answered_and_a_cursor() -> None:
+    from app.dashboard.timeline_svg import bars, lanes_svg
+
+    timed = [
+        ExecutionEvent(0, 1.0, "n0", None, "communication", text="Hello", start=100.0, end=101.0),
+        ExecutionEvent(1, 3.0, "n1", Hold("left", "leg1"), "actuation", start=101.0, end=103.0),
+        ExecutionEvent(2, 4.0, "n2", None, "human", start=101.5, end=104.0),
+        ExecutionEvent(3, 5.0, "n3", SenseHumanHolding(), "sensing", outcome="yes",
+                       source="camera", start=104.0, end=105.0),  # fmt: skip
+    ]
+    placed, is_timed = bars(timed)
+    assert is_timed and [(b.lane, b.start, b.end) for b in placed] == [
+        ("talk", 0.0, 1.0), ("robot", 1.0, 3.0), ("human", 1.5, 4.0), ("sensing", 4.0, 5.0)
+    ]
+    svg = lanes_svg(timed, shown=3)
+    assert svg.count("<rect") == 4 and "answered by camera" in svg and ">C</text>" in svg
+    assert "0 s … 5.0 s" in svg and f'stroke="{CURRENT}"' in svg
+    untimed = [ExecutionEvent(i, 0.0, f"n{i}", None, "communication") for i in range(3)]
+    assert "untimed" in lanes_svg(untimed) and bars(untimed)[1] is False

@@ -28,6 +28,7 @@ from planner.plan.model import Plan, PlanFormatError
 ANY = "any"
 FILTERS = (ANY, *RESULTS)
 NONE = "(no sessions)"
+LISTED = 200  # sessions offered in the list, newest first
 
 
 def session_label(s: SessionRecord) -> str:
@@ -100,11 +101,16 @@ class ReviewPanel:
         except StoreError as err:
             self.summary.content = f"**Error:** {err}"
             return
-        self._ids = {session_label(s): s.id for s in reversed(sessions)}  # newest first
+        # Newest first, and only the newest: a study day's hundreds of sessions would
+        # make every page carry them all; the filters reach the older ones.
+        listed = sessions[::-1][:LISTED]
+        self._ids = {session_label(s): s.id for s in listed}
         options = list(self._ids) or [NONE]
         self.pick.options = options
         self.pick.value = options[0]
-        self.summary.content = f"{len(sessions)} session(s)."
+        full = len(listed) == LISTED
+        more = f" The newest {LISTED} are listed: filter for others." if full else ""
+        self.summary.content = f"{len(sessions)} session(s).{more}"
 
     def open(self, label: str) -> None:
         session_id = self._ids.get(label)

@@ -4,22 +4,42 @@ The `Screen` is the panels' `Stage` (stage.py). Planning, executions, reviews
 and clicks reach it from different threads, so one lock keeps the plan, the
 tree and the selection in step; selecting a node is announced on `Events`
 (`NodeSelected`) and showing or dropping a complete plan too (`PlanChanged`).
+
+viser keeps every message in a buffer it replays to pages that join later, and
+a removed element (an answer button, a node's "Go to" buttons) leaves its
+removal there until a page connects; the screen sweeps those out when an
+execution ends, so a day of executions watched by the same pages stays flat.
 """
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import viser
 
 from app.dashboard.bench_scene import BenchScene
-from app.dashboard.stage import Events, NodeSelected, PlanChanged
+from app.dashboard.stage import Events, ExecutionFinished, NodeSelected, PlanChanged
 from app.dashboard.tree_svg import Step
 from app.dashboard.tree_view import TreeView
 from app.execution.world import world_at
 from planner.plan.model import Plan
 from planner.scenario.model import Scenario
+
+
+def _malloc_trim() -> Callable[[int], int] | None:
+    """glibc's `malloc_trim`, where there is one."""
+    name = ctypes.util.find_library("c")
+    try:
+        trim: Callable[[int], int] = ctypes.CDLL(name).malloc_trim
+    except (OSError, AttributeError, TypeError):
+        return None  # not glibc (musl, macOS): nothing to give back this way
+    return trim
+
+
+_TRIM = _malloc_trim()
 
 
 class Screen:
@@ -30,6 +50,7 @@ class Screen:
 
     def __init__(self, server: viser.ViserServer, events: Events) -> None:
         self.events = events
+        self.server = server
         self.bench = BenchScene(server, load_models=False)
         self.tree = TreeView(server.gui, self.select)
         self.plan: Plan | None = None
@@ -38,6 +59,20 @@ class Screen:
         self.current_arms: dict[str, list[float]] = {}
         # Reentrant: a `NodeSelected` subscriber may drive the stage again.
         self._lock = threading.RLock()
+        events.subscribe(ExecutionFinished, lambda _: self.sweep())
+
+    def sweep(self) -> None:
+        """Drops from viser's replay buffer the removals of elements and the
+        updates of removed ones that every connected page has already received.
+
+        viser runs the same sweep only when a page connects (its API has no
+        public entry); without it an execution watched by the same pages leaves
+        ~30 removal messages behind for good. Then the C heap's free pages go back
+        to the system: an execution's messages are many small allocations spread
+        over the heap, which glibc otherwise keeps as the process's memory."""
+        self.server._run_garbage_collector()
+        if _TRIM is not None:
+            _TRIM(0)
 
     def current_plan(self) -> Plan | None:
         return self.plan

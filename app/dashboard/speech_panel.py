@@ -45,6 +45,7 @@ Speak = Literal["page", "local"]
 MODES = ("clicks", "simulated voice", "microphone")
 PANEL_ORDER = 10_000.0
 LEVEL_EVERY_S = 0.1  # the input-level meter's updates (blocks arrive every 30 ms)
+LINES_KEPT = 200  # the robot's latest lines kept here (a run says ~10-40)
 
 
 def audio_html(line: Line) -> str:
@@ -146,7 +147,8 @@ class SpeechPanel:
 
     def _spoken(self, line: Line) -> None:
         with self._lock:
-            self.lines.append(line)
+            # Windowed: the session store keeps what was said, a day has thousands.
+            self.lines = [*self.lines[-(LINES_KEPT - 1):], line]
         if line.utterance is None:
             self.engine.content = f"Voice: **not spoken** ({line.error})"
             return
