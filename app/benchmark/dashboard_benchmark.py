@@ -13,12 +13,12 @@ from __future__ import annotations
 import argparse
 import random
 import shutil
-import socket
 import statistics
 import sys
 import time
 from collections.abc import Sequence
 
+from app.benchmark.page_driver import free_port
 from app.dashboard.mesh_detail import DEFAULT_DETAIL
 from app.dashboard.server import Dashboard, DashboardSettings
 from planner.plan.model import format_table
@@ -27,12 +27,6 @@ from planner.resources import scenario_path
 from planner.scenario.loading import load_scenario
 
 DEFAULT = scenario_path("paper/U10.toml")
-
-
-def _port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def page_loads(dashboard: Dashboard, runs: int) -> list[float]:
@@ -48,7 +42,7 @@ def page_loads(dashboard: Dashboard, runs: int) -> list[float]:
             page = browser.new_page(viewport={"width": 1400, "height": 900})
             before = set(dashboard.server.get_clients())
             t0 = time.perf_counter()
-            page.goto(f"http://127.0.0.1:{dashboard.server.get_port()}")
+            page.goto(f"http://127.0.0.1:{dashboard.server.getfree_port()}")
             page.get_by_role("button", name="Plan", exact=True).wait_for()
             while not set(dashboard.server.get_clients()) - before:
                 time.sleep(0.01)
@@ -71,13 +65,13 @@ def page_drawing(detail: float, frames: int, clicks: int) -> tuple[list[float], 
 
     chromium = shutil.which("chromium") or "/usr/bin/chromium"
     dashboard = Dashboard(
-        "127.0.0.1", _port(), "default.toml", DashboardSettings(mesh_detail=detail)
+        "127.0.0.1", free_port(), "default.toml", DashboardSettings(mesh_detail=detail)
     )
     try:
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
             page = browser.new_page(viewport={"width": 1400, "height": 900})
-            page.goto(f"http://127.0.0.1:{dashboard.server.get_port()}")
+            page.goto(f"http://127.0.0.1:{dashboard.server.getfree_port()}")
             button = page.get_by_role("button", name="Bench", exact=True)
             button.wait_for()
             time.sleep(SETTLE_S)
@@ -124,7 +118,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     t0 = time.perf_counter()
     plan = plan_scenario(scenario, workers=0).plan
     plan_s = time.perf_counter() - t0
-    dashboard = Dashboard("127.0.0.1", _port(), args.scenario)
+    dashboard = Dashboard("127.0.0.1", free_port(), args.scenario)
     try:
         loads = page_loads(dashboard, args.loads)
         dashboard.plan = plan
