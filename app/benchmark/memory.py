@@ -19,8 +19,9 @@ two pages, one replaced every ten executions; not planning again between runs):
   (1741 after 60 executions): the removals (`GuiRemoveMessage`) of elements
   made and removed during the run, the answer buttons of each question (~8)
   and the selected node's "Go to" buttons, remade at every step (~13), with
-  their updates. viser sweeps removals only when a page connects, so pages
-  that stay open never free them. RSS grew 57 KB per execution without the
+  their updates (the "Go to" group now stays and changes its options). viser
+  sweeps removals only when a page connects, so pages that stay open never
+  free them. RSS grew 57 KB per execution without the
   robot's meshes, 0.65 MB under tracemalloc.
 - Replaced, not accumulated, already: the tree's SVG, the timeline strip, the
   log (12 lines), the audio element and the camera frame are one `content`

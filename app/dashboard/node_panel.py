@@ -54,7 +54,11 @@ class NodePanel:
             self.toggle_button.on_click(lambda _: self._toggle())
             self.parent_button = gui.add_button("Parent", disabled=True)
             self.parent_button.on_click(lambda _: self._to_parent())
-            self.children_group: viser.GuiButtonGroupHandle | None = None
+            # One group whose options change: a group rebuilt per selection
+            # leaves a removal in every page's replay buffer.
+            self.children_group = gui.add_button_group("Go to", ("next",), visible=False)
+        self.children: dict[str, str] = {}
+        self.children_group.on_click(lambda e: self._go_to(e.target.value))
         events.subscribe(NodeSelected, self._selected)
         events.subscribe(PlanChanged, self._plan_changed)
 
@@ -74,14 +78,15 @@ class NodePanel:
         self._child_buttons(view.children)
 
     def _child_buttons(self, children: dict[str, str]) -> None:
-        if self.children_group is not None:
-            self.children_group.remove()
-            self.children_group = None
-        if not children:
-            return
-        with self.folder:
-            self.children_group = self.gui.add_button_group("Go to", list(children))
-        self.children_group.on_click(lambda e: self.stage.go_to(children[e.target.value]))
+        self.children = children
+        if children:
+            self.children_group.options = tuple(children)
+        self.children_group.visible = bool(children)
+
+    def _go_to(self, outcome: str) -> None:
+        node = self.children.get(outcome)
+        if node is not None:
+            self.stage.go_to(node)
 
     def _toggle(self) -> None:
         if self.selected is not None:

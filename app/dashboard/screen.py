@@ -6,7 +6,7 @@ tree and the selection in step; selecting a node is announced on `Events`
 (`NodeSelected`) and showing or dropping a complete plan too (`PlanChanged`).
 
 viser keeps every message in a buffer it replays to pages that join later, and
-a removed element (an answer button, a node's "Go to" buttons) leaves its
+a removed element (a question's answer buttons) leaves its
 removal there until a page connects; the screen sweeps those out when an
 execution ends, so a day of executions watched by the same pages stays flat.
 """
