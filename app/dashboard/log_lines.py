@@ -96,6 +96,8 @@ def sentence(event: ExecutionEvent) -> str:
         words = event.text or "The robot plans again from what it saw."
     elif event.kind == "interrupted":
         words = event.text or "The execution was interrupted."
+    elif event.kind == "robot-fault":
+        return f"`{event.node}` **The robot stopped:** {event.text or 'a fault'}"
     elif event.text and event.kind == "communication":
         words = f"The robot says: “{event.text}”"
     else:

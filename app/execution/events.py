@@ -42,16 +42,18 @@ DIALOGUE_KINDS: tuple[DialogueKind, ...] = get_args(DialogueKind)
 # `repair`: the execution changed plans after a surprise (its evidence says which);
 # `interrupted`: the walk stopped at this node for the reason in its text (the
 # program stopping, not a step of the plan); `human`: the simulated human's task
-# action started by the node (a request), timed in a simulated run; or one of the
-# dialogue's.
+# action started by the node (a request), timed in a simulated run; `robot-fault`:
+# the robot behind a link stopped (its text the cause, its evidence the robot's last
+# joint state); or one of the dialogue's.
 EventKind = Literal[
     "actuation", "sensing", "communication", "goal", "repair", "interrupted", "human",
-    DialogueKind,
+    "robot-fault", DialogueKind,
 ]  # fmt: skip
 EVENT_KINDS: tuple[EventKind, ...] = get_args(EventKind)
 REPAIR: EventKind = "repair"
 INTERRUPTED: EventKind = "interrupted"
 HUMAN: EventKind = "human"
+ROBOT_FAULT: EventKind = "robot-fault"
 # Who answered a branching node: a click in the dashboard, the console's numbered
 # choices, a seeded random choice, a script, the planner's hoped outcome, the
 # camera or the voice.
@@ -158,7 +160,7 @@ class Waypoint:
 def is_step(event: ExecutionEvent) -> bool:
     """Whether `event` is a step along the plan (a node run, or a change of plans), not
     an interruption, the human's own action or a turn of the dialogue."""
-    return event.kind not in (INTERRUPTED, HUMAN) and event.kind not in DIALOGUE_KINDS
+    return event.kind not in (INTERRUPTED, HUMAN, ROBOT_FAULT) and event.kind not in DIALOGUE_KINDS
 
 
 def describe(action: Action | None, label: str | None) -> str:

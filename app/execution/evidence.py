@@ -4,15 +4,17 @@ An event's `Evidence` holds at most one record of each kind: what the robot said
 (`Spoken`), what the camera read (`CameraReading`), what the voice heard
 (`VoiceHearing`), what was clicked (`Clicked`), a slot the human used
 (`SlotFollowed`), a motion re-targeted to the world's slots (`Retargeted`), a
-new plan after a surprise (`Replanned`), and, in simulated runs, what the
-simulated human really did (`Truth`). A source writes only its own record; a
+new plan after a surprise (`Replanned`), what a robot behind a link did
+(`RobotMotion`), and, in simulated runs, what the simulated human really did
+(`Truth`). A source writes only its own record; a
 node where the robot speaks and then listens merges two.
 
 The JSON form, stored in the session database and in exports, is versioned:
 
 - version 2 (written now): `{"version": 2, "spoken": {...}, "camera": {...},
   "voice": {...}, "clicked": {...}, "slot": {...}, "retargeted": {...},
-  "replanned": {...}, "truth": {"label": ..., "said": [...]}}`, a key only for
+  "replanned": {...}, "robot": {...}, "truth": {"label": ..., "said": [...]}}`,
+  a key only for
   a record that is there; each record's fields are its dataclass's.
 - version 1 (no "version" key; sessions stored before the records existed): one
   flat mapping whose keys told the writer (`said`/`engine` a spoken line,
@@ -137,6 +139,28 @@ class Replanned:
 
 
 @dataclass(frozen=True)
+class RobotMotion:
+    """What the robot behind a link did at an actuation node (or a fault).
+
+    `link` names the backend (`ros`); `reached` is the arm's last joint state;
+    `off_rad` its largest joint difference from the plan's end of the motion;
+    `states` the arm's joint states along the motion (seconds from its start,
+    positions in `joints`' order; thinned); `to_start` whether a planned motion
+    to the plan's start came first; `cause`/`detail` a fault's (None when reached).
+    """
+
+    link: str
+    arm: str
+    joints: tuple[str, ...]
+    reached: tuple[float, ...]
+    off_rad: float
+    states: tuple[tuple[float, tuple[float, ...]], ...] = ()
+    to_start: bool = False
+    cause: str | None = None
+    detail: str | None = None
+
+
+@dataclass(frozen=True)
 class Truth:
     """What the simulated human really did: the outcome it acted out or answered, and,
     for a spoken answer, its words."""
@@ -160,6 +184,7 @@ class Evidence:
     slot: SlotFollowed | None = None
     retargeted: Retargeted | None = None
     replanned: Replanned | None = None
+    robot: RobotMotion | None = None
     truth: Truth | None = None
     jpeg: bytes | None = field(default=None, repr=False)
 
@@ -218,7 +243,7 @@ def _from_v2(doc: Mapping[str, Any], jpeg: bytes | None) -> Evidence:
         return value if isinstance(value, Mapping) else None
 
     voice, retargeted = get("voice"), get("retargeted")
-    truth, replanned = get("truth"), get("replanned")
+    truth, replanned, robot = get("truth"), get("replanned"), get("robot")
     return Evidence(
         spoken=_build(Spoken, get("spoken")),
         camera=_build(CameraReading, get("camera")),
@@ -227,6 +252,7 @@ def _from_v2(doc: Mapping[str, Any], jpeg: bytes | None) -> Evidence:
         slot=_build(SlotFollowed, get("slot")),
         retargeted=None if retargeted is None else _retargeted(retargeted),
         replanned=None if replanned is None else _replanned(replanned),
+        robot=None if robot is None else _robot(robot),
         truth=None if truth is None else Truth(truth["label"], tuple(truth.get("said", ()))),
         jpeg=jpeg,
     )
@@ -277,6 +303,20 @@ def _replanned(doc: Mapping[str, Any]) -> Replanned:
         observed=tuple(doc.get("observed", ())),
         plan=doc["plan"],
         plan_s=float(doc.get("plan_s", 0.0)),
+    )
+
+
+def _robot(doc: Mapping[str, Any]) -> RobotMotion:
+    return RobotMotion(
+        link=str(doc.get("link", "")),
+        arm=str(doc.get("arm", "")),
+        joints=tuple(doc.get("joints", ())),
+        reached=tuple(float(q) for q in doc.get("reached", ())),
+        off_rad=float(doc.get("off_rad", 0.0)),
+        states=tuple((float(t), tuple(float(q) for q in qs)) for t, qs in doc.get("states", ())),
+        to_start=bool(doc.get("to_start", False)),
+        cause=doc.get("cause"),
+        detail=doc.get("detail"),
     )
 
 

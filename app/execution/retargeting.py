@@ -38,6 +38,11 @@ class MotionRetargeter:
 
         return retarget(action, state, real, real_state, self._open())
 
+    def to_start(self, arm: str, here: list[float], start: list[float]) -> list[list[float]] | None:
+        """A collision-free path of `arm` from `here` to `start` on the bench with its
+        parts where the scenario puts them (`app.execution.robot_drive.ToStart`)."""
+        return self._open().world.move(arm, here, start, frozenset())
+
     def reaches(self, arm: str, site: Site) -> bool:
         return self._open().reaches_site(arm, site)
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import random
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
 from typing import Literal, Protocol, get_args
@@ -113,19 +113,26 @@ def joint_velocity_limits() -> Mapping[str, float]:
     return limits
 
 
-def motion_seconds(motion: Motion | None) -> float:
-    """How long the arm takes along `motion`'s path: each segment as long as its
-    slowest joint needs at `SPEED_RATIO` of its velocity limit (a path is fine enough
-    that the arm does not stop between waypoints)."""
-    if motion is None or len(motion.path) < 2:
-        return ACTUATION_WITHOUT_PATH_S
+def segment_seconds(
+    joints: Sequence[str], path: Sequence[Sequence[float]], ratio: float = SPEED_RATIO
+) -> list[float]:
+    """How long each segment of a joint path takes: as long as its slowest joint
+    needs at `ratio` of its velocity limit (a path is fine enough that the arm does
+    not stop between waypoints)."""
     limits = joint_velocity_limits()
     slowest = min(BAXTER_VELOCITY_LIMITS.values())
-    speeds = [SPEED_RATIO * limits.get(name, slowest) for name in motion.joints]
-    total = 0.0
-    for a, b in zip(motion.path, motion.path[1:], strict=False):
-        total += max(abs(y - x) / v for x, y, v in zip(a, b, speeds, strict=False))
-    return total
+    speeds = [ratio * limits.get(name, slowest) for name in joints]
+    return [
+        max(abs(y - x) / v for x, y, v in zip(a, b, speeds, strict=False))
+        for a, b in zip(path, path[1:], strict=False)
+    ]
+
+
+def motion_seconds(motion: Motion | None) -> float:
+    """How long the arm takes along `motion`'s path (`segment_seconds`)."""
+    if motion is None or len(motion.path) < 2:
+        return ACTUATION_WITHOUT_PATH_S
+    return sum(segment_seconds(motion.joints, motion.path))
 
 
 def speech_seconds(text: str | None, spoken: Evidence | None) -> float:

@@ -10,8 +10,10 @@ communication node as the executor reaches it, before its event (and before a
 question is asked): it speaks the sentence and returns what to keep of that
 (the text, the engine), which the event carries as evidence. It runs
 synchronously (`run()`) or in its own thread (`start()`), and can be paused,
-single-stepped, resumed and aborted from any thread; with `waypoint_s` an arm
-motion takes time and a pause stops it at its next waypoint. A source with
+single-stepped, resumed and aborted from any thread (its `RunGate`); with
+`waypoint_s` an arm motion takes time and a pause stops it at its next
+waypoint. With a `robot` (`app.execution.robot_drive`), a robot behind a link
+makes each motion before its event is recorded, and a pause cancels it at once. A source with
 `attach`/`detach` is handed the executor while it runs (the voice pauses it on
 "stop" and keeps the dialogue's turns with `note`, from its own thread).
 
@@ -35,6 +37,7 @@ from typing import NamedTuple
 from app.execution.events import (
     INTERRUPTED,
     REPAIR,
+    ROBOT_FAULT,
     AnswerSource,
     DialogueKind,
     EventKind,
@@ -48,7 +51,9 @@ from app.execution.events import (
     Waypoint,
     describe,
 )
-from app.execution.evidence import Evidence, Replanned, merged
+from app.execution.evidence import Evidence, Replanned, RobotMotion, merged
+from app.execution.robot_drive import RobotDriver, RobotStopped
+from app.execution.run_gate import Aborted, RunGate
 from app.execution.slots import Retarget, Slots
 from app.execution.surprises import Surprise, SurpriseError
 from app.execution.timing import Timeline, WallTimeline
@@ -73,10 +78,6 @@ def _event_kind(node: PlanNode) -> EventKind:
 
 # A walk longer than this is a loop no plan should have: it ends as a dead end.
 MAX_STEPS = 10_000
-
-
-class _Aborted(Exception):
-    pass
 
 
 class _Next(NamedTuple):
@@ -107,8 +108,11 @@ class Executor:
         retarget: Retarget | None = None,
         waypoint_s: float = 0.0,
         timeline: Timeline | None = None,
+        robot: RobotDriver | None = None,
     ) -> None:
         self.plan = plan
+        # The robot behind a link that makes the motions (None: they are only drawn).
+        self.robot = robot
         self.timeline: Timeline = timeline if timeline is not None else WallTimeline()
         self.slots = Slots(plan, retarget, replans=repairing is not None)
         self.narrator = narrator
@@ -125,12 +129,7 @@ class Executor:
         self.error: BaseException | None = None
         self.current: str | None = None  # the node being run
         self.events: list[ExecutionEvent] = []
-        self._cond = threading.Condition()
-        self._paused = False
-        self._credits = 0  # steps allowed while paused
-        self._stepping = False  # a single step runs: its motion goes to its end
-        self._aborted = False
-        self._stopped_by: str | None = None  # why the walk was interrupted
+        self.gate = RunGate()
         self._thread: threading.Thread | None = None
         self._done = threading.Event()
         self._recording = threading.RLock()  # events come from the walk and the voice
@@ -142,38 +141,28 @@ class Executor:
 
     def pause(self, why: str | None = None, evidence: Evidence | None = None) -> None:
         """Pauses before the next node (an arm motion under way stops at its next
-        waypoint). `why`, when given (the human said "stop"), is kept as a `paused`
-        event, with the `evidence` of what was heard."""
-        with self._cond:
-            was = self._paused
-            self._paused = True
-            self._credits = 0
-            self._stepping = False
-            self._cond.notify_all()
+        waypoint; a robot's, at once). `why`, when given (the human said "stop"), is
+        kept as a `paused` event, with the `evidence` of what was heard."""
+        was = self.gate.pause()
+        if self.robot is not None:
+            self.robot.cancel()
         if why is not None and not was:
             self.note("paused", why, "voice", evidence)
 
     def resume(self, why: str | None = None, evidence: Evidence | None = None) -> None:
         """Goes on; `why`, when given, is kept as a `resumed` event (as for `pause`)."""
-        with self._cond:
-            was = self._paused
-            self._paused = False
-            self._credits = 0
-            self._cond.notify_all()
+        was = self.gate.resume()
         if why is not None and was:
             self.note("resumed", why, "voice", evidence)
 
     def step(self) -> None:
         """Single-step mode: pauses, and lets exactly one more node run."""
-        with self._cond:
-            self._paused = True
-            self._credits += 1
-            self._cond.notify_all()
+        self.gate.step()
 
     def abort(self) -> None:
-        with self._cond:
-            self._aborted = True
-            self._cond.notify_all()
+        self.gate.abort()
+        if self.robot is not None:
+            self.robot.cancel()
         interrupt = getattr(self.source, "interrupt", None)
         if callable(interrupt):
             interrupt()
@@ -181,19 +170,16 @@ class Executor:
     def interrupt(self, reason: str) -> None:
         """Stops the walk as `interrupted` (the program is stopping, not the operator),
         with a last event saying `reason`."""
-        with self._cond:
-            self._stopped_by = reason
+        self.gate.stop(reason)
         self.abort()
 
     @property
     def paused(self) -> bool:
-        with self._cond:
-            return self._paused
+        return self.gate.paused
 
     @property
     def aborted(self) -> bool:
-        with self._cond:
-            return self._aborted
+        return self.gate.aborted
 
     @property
     def done(self) -> bool:
@@ -223,8 +209,7 @@ class Executor:
         """Walks the plan in this thread and returns how it ended."""
         try:
             result = self._walk()
-            with self._cond:
-                reason = self._stopped_by
+            reason = self.gate.stopped_by
             if result == "aborted" and reason is not None:
                 result = "interrupted"
                 last = self.events[-1].node if self.events else self.plan.root
@@ -246,7 +231,7 @@ class Executor:
         node_id = self.plan.root
         try:
             for _ in range(MAX_STEPS):
-                self._gate()
+                self.gate.before_node()
                 node = self.nodes.get(node_id)
                 if node is None:
                     return "dead-end"
@@ -255,9 +240,9 @@ class Executor:
                 if isinstance(after, str):
                     return after
                 if after.stepped:
-                    self._sleep(self.step_delay)
+                    self.gate.sleep(self.step_delay)
                 node_id = after.node
-        except _Aborted:
+        except Aborted:
             return "aborted"
         return "dead-end"
 
@@ -283,10 +268,27 @@ class Executor:
         text = node.say if node.kind == "communication" else None
         step = self.slots.at(node_id, node, None)
         evidence = merged(spoken, step.evidence)
+        if step.motion is not None and self.robot is not None:
+            # The robot moves first: its event says what it did, when it is done.
+            moved = Evidence(robot=self._drive(node_id, node, step.motion))
+            evidence = merged(evidence, moved)
         self._emit(node_id, node, text=text, motion=step.motion, spoken=spoken, evidence=evidence)
-        if step.motion is not None and self.waypoint_s > 0:
+        if step.motion is not None and self.waypoint_s > 0 and self.robot is None:
             self._move(node_id, step.motion)
         return _Next(node.children[0].node)
+
+    def _drive(self, node_id: str, node: PlanNode, motion: Motion) -> RobotMotion:
+        """The robot makes `motion`; a fault it cannot get past stops the walk."""
+        assert self.robot is not None
+
+        def fault(record: RobotMotion) -> None:
+            event = ExecutionEvent(0, 0.0, node_id, node.action, ROBOT_FAULT, text=record.detail)
+            self._record(replace(event, evidence=Evidence(robot=record)))
+
+        try:
+            return self.robot.drive(motion, node.action, self.gate.within_node, fault)
+        except RobotStopped:
+            raise Aborted from None
 
     def _branching_step(self, node_id: str, node: PlanNode, spoken: Evidence | None) -> _Next:
         """A node with outcomes: the one the source says happened, followed (at the
@@ -310,53 +312,22 @@ class Executor:
         )
         return _Next(next(c.node for c in node.children if c.outcome == outcome.label))
 
-    def _gate(self) -> None:
-        """Waits while paused (unless a single step is allowed); raises when aborted."""
-        with self._cond:
-            while True:
-                if self._aborted:
-                    raise _Aborted
-                if not self._paused:
-                    self._stepping = False
-                    return
-                if self._credits > 0:
-                    self._credits -= 1
-                    self._stepping = True
-                    return
-                self._cond.wait()
-
     def _move(self, node_id: str, motion: Motion) -> None:
         """The arm goes through its path, `waypoint_s` a waypoint; paused, it stops at
         the waypoint it reaches next (a single step's motion goes to its end)."""
         count = len(motion.path)
         for index in range(count):
             self.waypoint = Waypoint(node_id, index, count)
-            with self._cond:
-                while self._paused and not self._stepping and not self._aborted:
-                    self._cond.wait()
+            self.gate.within_node()
             if index + 1 < count:
-                self._sleep(self.waypoint_s)
+                self.gate.sleep(self.waypoint_s)
         self.waypoint = None
-
-    def _sleep(self, seconds: float) -> None:
-        if seconds <= 0:
-            if self.aborted:
-                raise _Aborted
-            return
-        deadline = time.monotonic() + seconds
-        with self._cond:
-            while not self._aborted:
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    return
-                self._cond.wait(left)
-            raise _Aborted
 
     def _ask(self, node_id: str, node: PlanNode, options: list[str]) -> Outcome:
         """The source's outcome; asks again while it has no answer, until aborted."""
         while True:
             if self.aborted:
-                raise _Aborted
+                raise Aborted
             outcome = self.source.choose(node_id, node, options)
             if outcome is None:
                 # No answer yet (a click timed out): ask again, unless aborted.
