@@ -13,6 +13,7 @@ from types import FrameType
 from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
+from app.cli.robot_args import register_robot_args, robot_from_args
 from app.cli.voice_args import voice_from_args
 from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, Result
 from app.execution.repair import Repairer
@@ -88,6 +89,7 @@ def register(parser: argparse.ArgumentParser) -> None:
         "--step-delay", type=float, default=0.0, help="seconds between steps (default 0)"
     )
     parser.add_argument("--note", help="a note stored with the session")
+    register_robot_args(parser)
     parser.set_defaults(run=run)
 
 
@@ -220,10 +222,11 @@ def _timeline(
     args: argparse.Namespace, seed: int | None, scenario: Scenario | None
 ) -> SimulatedTimeline | None:
     """Headless runs answered without a live camera or voice, at no step delay, run
-    on a simulated clock (fast, the same for a seed); the others on the wall's."""
+    on a simulated clock (fast, the same for a seed); the others (and a robot's) on the
+    wall's."""
     spec = str(args.responses)
     live = spec.startswith("voice:") or (spec.startswith("camera:") and spec != "camera:sim")
-    if live or args.step_delay > 0:
+    if live or args.step_delay > 0 or args.robot != "drawing":
         return None
     return SimulatedTimeline(seed or 0, scenario.human if scenario is not None else None)
 
@@ -236,6 +239,9 @@ def run(args: argparse.Namespace) -> int:
     if seeded and seed is None:
         seed = secrets.randbelow(2**31)
         print(f"seed {seed}", file=sys.stderr)
+    # The robot is reached before anything starts: if it is not there, nothing is stored.
+    retarget = retargeter_for(scenario, plan)
+    robot = robot_from_args(args, retarget.to_start if retarget is not None else None)
     answers = _answers(args, plan, scenario, seed, calibration)
     note = args.note
     if seeded:
@@ -253,12 +259,15 @@ def run(args: argparse.Namespace) -> int:
             narrator=answers.narrator,
             repairing=repairing,
             # The slot the human used moves later motions: the motion planner re-targets them.
-            retarget=retargeter_for(scenario, plan),
+            retarget=retarget,
             timeline=_timeline(args, seed, scenario),
+            robot=robot,
         )
         result = _run_until_stopped(executor)
         store.finish(session_id, result)
     answers.close()
+    if robot is not None:
+        robot.link.close()
     print(f"session {session_id}: {result} after {len(executor.events)} steps")
     return 0 if result == "goal" else 1
 

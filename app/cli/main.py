@@ -27,6 +27,7 @@ from app.cli import (
     listen,
     markers,
     plan,
+    robot,
     say,
     scenario,
     sessions,
@@ -54,6 +55,7 @@ SUBCOMMANDS: list[tuple[str, str, Register]] = [
     ("track", "what the camera sees: each part's placement as it changes", track.register),
     ("say", "the robot's voice: speak a sentence to the speakers or a file", say.register),
     ("listen", "hear one yes/no answer and show what was understood", listen.register),
+    ("robot", "the robot's side: a simulated Baxter on ROS 1 (sim)", robot.register),
 ]
 
 

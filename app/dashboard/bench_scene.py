@@ -113,6 +113,7 @@ class BenchScene:
         self._label_handles: dict[str, viser.LabelHandle] = {}
         self._static: list[viser.SceneNodeHandle] = []
         self.robot: ViserUrdf | None = None
+        self.drawn_arms: dict[str, list[float]] = {}  # each arm's joints as drawn now
         if load_models:
             self.load_models(mesh_detail)
 
@@ -231,3 +232,4 @@ class BenchScene:
                 if name in names:
                     cfg[names.index(name)] = value
         self.robot.update_cfg(cfg)
+        self.drawn_arms = {arm: list(arms[arm]) for arm in ARMS}

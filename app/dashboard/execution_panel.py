@@ -13,7 +13,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 import viser
 
@@ -32,6 +32,7 @@ from app.dashboard.tree_svg import Step, strip_svg
 from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, is_step
 from app.execution.repair import Repairer
 from app.execution.retargeting import retargeter_for
+from app.execution.robot_drive import RobotDriver, ToStart
 from app.execution.walker import Executor, Listener, Narrator
 from app.sessions.database import StoreError
 from app.sessions.store import SessionStore
@@ -42,6 +43,17 @@ from planner.vocabulary import SenseLengthOf, SenseShapeOf
 # Who answers and who speaks in an execution of a plan, given the clicks to fall
 # back on (the speech panel's `responses`); without one the clicks answer, silently.
 Responses = Callable[[Plan, ClickSource], tuple[OutcomeSource, Narrator | None]]
+
+
+
+class RobotChoice(Protocol):
+    """Who makes the motions (the robot panel): a driver per execution, or None
+    (drawn only); `give_up` answers a fault's question when the run is aborted."""
+
+    def driver(self, to_start: ToStart | None) -> RobotDriver | None: ...
+
+    def give_up(self) -> None: ...
+
 
 FRAMES_PER_MOTION = 20  # arm poses shown per motion (the path is subsampled)
 LOG_LINES = 12  # the page keeps these; the session store keeps every event
@@ -57,9 +69,11 @@ class ExecutionPanel:
         store: SessionStore,
         operator: Operator,
         responses: Responses | None = None,
+        robot: RobotChoice | None = None,
     ) -> None:
         self.gui = gui
         self.responses = responses
+        self.robot = robot
         self.stage = stage
         self.events = events
         self.store = store
@@ -86,9 +100,7 @@ class ExecutionPanel:
             only("step", lambda _: self.executor.step() if self.executor else None)
         )
         self.abort_button = gui.add_button("Abort", disabled=True, color="red")
-        self.abort_button.on_click(
-            only("abort", lambda _: self.executor.abort() if self.executor else None)
-        )
+        self.abort_button.on_click(only("abort", lambda _: self._abort()))
         self.notice = gui.add_markdown("")
         self.human_folder = gui.add_folder("Simulated human")
         with self.human_folder:
@@ -177,6 +189,8 @@ class ExecutionPanel:
         self.clicks = clicks
         self._log, self._steps = [], []
         self.log.content = ""
+        retarget = retargeter_for(scenario, plan)
+        to_start = retarget.to_start if retarget is not None else None
         self.executor = Executor(
             plan,
             source,
@@ -184,7 +198,8 @@ class ExecutionPanel:
             step_delay=float(self.speed.value),
             narrator=narrator,
             repairing=Repairer(scenario, self.store.add_plan).repair if scenario else None,
-            retarget=retargeter_for(scenario, plan),
+            retarget=retarget,
+            robot=self.robot.driver(to_start) if self.robot is not None else None,
         )
         clicks.slots = self.executor  # a humanAttachingWhere offers every free slot
         for button in (self.pause_button, self.step_button, self.abort_button):
@@ -221,6 +236,12 @@ class ExecutionPanel:
             button.disabled = True
         if session_id is not None and result is not None:
             self.events.publish(ExecutionFinished(session_id, result))
+
+    def _abort(self) -> None:
+        if self.executor is not None:
+            self.executor.abort()
+        if self.robot is not None:
+            self.robot.give_up()  # a question after a robot fault is answered
 
     def _pause_resume(self) -> None:
         executor = self.executor
@@ -261,7 +282,8 @@ class ExecutionPanel:
         if event.kind == REPAIR and event.plan is not None:
             self.stage.show_plan(event.plan)  # the execution goes on with the new plan
         self._add_line(sentence(event))
-        if event.motion:
+        robot_moved = event.evidence is not None and event.evidence.robot is not None
+        if event.motion and not robot_moved:  # a robot's arm was drawn as it moved
             self._play(event.motion, float(self.speed.value))
             self.stage.show_world(event.node)
 

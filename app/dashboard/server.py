@@ -26,6 +26,7 @@ from app.dashboard.operator import Operator
 from app.dashboard.plan_panel import PlanPanel, PlanSettings
 from app.dashboard.planning_job import PlanningJob
 from app.dashboard.review_panel import ReviewPanel
+from app.dashboard.robot_panel import RobotPanel
 from app.dashboard.scenario_edit import Loaded
 from app.dashboard.scenario_folders import RECORDINGS_FOLDER, USER_FOLDER, ScenarioFolders
 from app.dashboard.scenario_panel import ScenarioPanel
@@ -109,10 +110,12 @@ class Dashboard:
             server.stop()
             raise
         self.speech = SpeechPanel(gui, screen, events, s.speak)
+        self.robot = RobotPanel(gui, screen)
         with panels.execution_tab:
             self.execution = ExecutionPanel(
-                gui, screen, events, self.store, self.operator, self.speech.responses
-            )
+                gui, screen, events, self.store, self.operator, self.speech.responses,
+                self.robot,
+            )  # fmt: skip
         if self.store.read_only is not None:
             self.execution.refuse_executions(self.store.read_only)
         with panels.review_tab:
@@ -213,7 +216,9 @@ class Dashboard:
         """Stops everything; a running execution ends `interrupted` with `reason`
         when the program is stopping (a signal), else aborted."""
         self.plan_panel.close()
+        self.robot.give_up()  # a question after a robot fault must not hold the close
         self.execution.close(reason)
+        self.robot.close()
         for panel in (self.review, self.camera_panel, self.speech, self.scenario_panel,
                       self.node_panel, self.view_panel):  # fmt: skip
             panel.close()

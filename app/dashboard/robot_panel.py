@@ -1,0 +1,147 @@
+"""The Robot panel: who makes the plan's motions, and what to do when it stops.
+
+"Moves" chooses between the drawing (nobody: the motions are only drawn, the
+default) and a robot over ROS (Baxter, or `tandem robot sim`) at the master
+the page names. "Connect" reaches it; if nothing answers, the panel says why
+in one line and the motions stay drawn. Once connected the drawn arms follow
+the robot's joint states (at most `DRAW_HZ` a second), and every execution
+drives it through a `RobotDriver`. When the robot stops mid-motion the panel
+shows the cause and asks the operator: **Retry** (back to the motion's start,
+then again) or **Abort**; aborting the execution answers Abort.
+
+The execution panel asks `driver(to_start)` when an execution starts, and
+`give_up()` when it is aborted; it needs nothing else from this panel.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from typing import Any
+
+import viser
+
+from app.dashboard.stage import Stage
+from app.execution.robot_drive import FaultChoice, RobotDriver, ToStart
+from app.execution.robot_link import JointState, RobotFault, RobotLink
+from app.execution.timing import SPEED_RATIO
+from planner.feasibility.arms import ARMS, joint_names
+
+DRAW_HZ = 15.0
+CONNECT_TIMEOUT_S = 5.0
+MOVES = ("drawing only", "robot over ROS")
+DRAWING = "Motions are **drawn only**."
+
+
+class RobotPanel:
+    def __init__(self, gui: viser.GuiApi, stage: Stage) -> None:
+        self.stage = stage
+        self.link: RobotLink | None = None
+        self._drawn = 0.0
+        self._stop_watching: Any = None
+        self._choice: FaultChoice | None = None
+        self._chosen = threading.Condition()
+        with gui.add_folder("Robot", expand_by_default=False):
+            self.moves: Any = gui.add_dropdown("Moves", MOVES)
+            master = os.environ.get("ROS_MASTER_URI", "http://127.0.0.1:11311")
+            self.master: Any = gui.add_text("ROS master", master)
+            self.connect_button = gui.add_button("Connect")
+            self.connect_button.on_click(lambda _: self._connect_clicked())
+            self.status = gui.add_markdown(DRAWING)
+            self.retry_button = gui.add_button("Retry", visible=False, color="green")
+            self.retry_button.on_click(lambda _: self._choose("retry"))
+            self.abort_button = gui.add_button("Abort the execution", visible=False, color="red")
+            self.abort_button.on_click(lambda _: self._choose("abort"))
+        self.moves.on_update(lambda _: self._moves_changed())
+
+    # -- connecting -----------------------------------------------------------------
+
+    def _moves_changed(self) -> None:
+        if self.moves.value == MOVES[0]:
+            self.disconnect()
+
+    def _connect_clicked(self) -> None:
+        self.connect()
+
+    def connect(self) -> bool:
+        """Reaches the robot at the page's master; False (and one line) if it is not there."""
+        from app.robot.ros_env import RosMissing
+        from app.robot.ros_link import RosLink
+
+        self.disconnect()
+        self.moves.value = MOVES[1]
+        uri = str(self.master.value).strip()
+        self.status.content = f"**Connecting** to {uri}…"
+        link = RosLink(uri)
+        try:
+            link.connect(CONNECT_TIMEOUT_S)
+        except (RobotFault, RosMissing) as err:
+            self.status.content = f"**Not connected:** {err}. {DRAWING}"
+            self.moves.value = MOVES[0]
+            return False
+        self.link = link
+        self._stop_watching = link.watch(self._follow)
+        self.status.content = f"**Connected** to {uri}: the plan's motions move the robot."
+        return True
+
+    def disconnect(self) -> None:
+        if self._stop_watching is not None:
+            self._stop_watching()
+            self._stop_watching = None
+        if self.link is not None:
+            self.link.close()
+            self.link = None
+            self.status.content = DRAWING
+
+    def _follow(self, state: JointState) -> None:
+        """The drawn arms follow the robot (the ROS thread; thinned to `DRAW_HZ`)."""
+        now = time.monotonic()
+        if now - self._drawn < 1.0 / DRAW_HZ:
+            return
+        self._drawn = now
+        arms = self.stage.arms()
+        for arm in ARMS:
+            names = joint_names(arm)
+            if all(n in state.positions for n in names):
+                arms[arm] = [float(state.positions[n]) for n in names]
+        self.stage.show_arms(arms)
+
+    # -- executions ----------------------------------------------------------------------
+
+    def driver(self, to_start: ToStart | None) -> RobotDriver | None:
+        """The robot for the next execution (None: the motions are drawn)."""
+        if self.link is None:
+            return None
+        with self._chosen:
+            self._choice = None
+        return RobotDriver(self.link, to_start, self._ask, SPEED_RATIO)
+
+    def give_up(self) -> None:
+        """The execution is aborted: a question waiting on a fault is answered Abort."""
+        self._choose("abort")
+
+    def _ask(self, fault: RobotFault) -> FaultChoice:
+        """Runs in the executor's thread: shows the fault and waits for the operator."""
+        self.status.content = f"**The robot stopped:** {fault.line}. Retry, or abort?"
+        self.retry_button.visible = self.abort_button.visible = True
+        with self._chosen:
+            self._choice = None
+            while self._choice is None:
+                self._chosen.wait()
+            choice = self._choice
+        self.retry_button.visible = self.abort_button.visible = False
+        self.status.content = (
+            "**Retrying:** back to the motion's start." if choice == "retry"
+            else "**Aborted** after the robot stopped."
+        )  # fmt: skip
+        return choice
+
+    def _choose(self, choice: FaultChoice) -> None:
+        with self._chosen:
+            self._choice = choice
+            self._chosen.notify_all()
+
+    def close(self) -> None:
+        self.give_up()
+        self.disconnect()

@@ -1,0 +1,1 @@
+"""The robot behind the plan: one link protocol, its backends, the simulated Baxter."""

@@ -1,0 +1,189 @@
+"""A real ROS 1 graph for tests: a roscore, the simulated Baxter node, a node here.
+
+- `ros_master`: a fixture giving the test process's one roscore (started on
+  first use, stopped at exit: rospy binds a process to one master for good, so
+  every module shares it). Skipped only when ROS is not installed (`make test`
+  installs it). A test that kills a master starts its own `RosMaster`.
+- `sim_baxter(master, start=None)`: `tandem robot sim` as a subprocess, returned
+  once it printed its ready line (which it prints after its own joint states
+  came back through the master); stopped with SIGTERM after. `kill_sim(sim)`
+  kills it (SIGKILL) for fault tests.
+- `ros_node(master)` and `JointWatch`: a rospy node in this process, on the
+  shared master, and the joint states it hears.
+"""
+
+from __future__ import annotations
+
+import atexit
+import importlib
+import json
+import os
+import queue
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from app.robot.ros_env import RosMaster, use_ros
+
+ROOT = Path(__file__).resolve().parent.parent
+READY_TIMEOUT_S = 60.0  # generous: the machine may be busy with a benchmark
+_shared: list[RosMaster] = []
+_node_master: list[str] = []
+
+
+def ros_installed() -> bool:
+    return shutil.which("roscore") is not None or Path("/usr/bin/roscore").is_file()
+
+
+def shared_master() -> RosMaster:
+    """The test process's roscore (started once, stopped at exit)."""
+    if not _shared:
+        master = RosMaster().start()
+        atexit.register(master.stop)
+        _shared.append(master)
+    return _shared[0]
+
+
+@pytest.fixture
+def ros_master() -> RosMaster:
+    if not ros_installed():
+        pytest.skip("ROS 1 is not installed: make robot")
+    return shared_master()
+
+
+@dataclass
+class SimBaxter:
+    """A running `tandem robot sim`: its process, and what it wrote (stdout, stderr)."""
+
+    process: subprocess.Popen[str]
+    master: RosMaster
+    started_s: float = 0.0  # from launch to its ready line
+    lines: queue.Queue[str] = field(default_factory=queue.Queue)
+    output: list[str] = field(default_factory=list)
+
+    def stop(self, timeout_s: float = 15.0) -> int:
+        """SIGTERM, then its exit code (SIGKILL if it does not exit in time)."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGTERM)
+        try:
+            return self.process.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            kill_sim(self)
+            raise
+
+    def said(self) -> str:
+        return "".join(self.output)
+
+
+def _drain(stream: Any, sim: SimBaxter) -> None:
+    for line in stream:
+        sim.output.append(line)
+        sim.lines.put(line)
+
+
+@contextmanager
+def sim_baxter(
+    master: RosMaster, start: Mapping[str, float] | None = None, rate: float = 100.0
+) -> Iterator[SimBaxter]:
+    """`tandem robot sim` on `master`, ready (see the module's text); stopped after."""
+    began = time.monotonic()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "robot", "sim", "--master", master.uri,
+         "--rate", str(rate), "--start", json.dumps(dict(start)) if start else "home"],
+        cwd=ROOT, env=master.env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    sim = SimBaxter(process, master)
+    for stream in (process.stdout, process.stderr):
+        threading.Thread(target=_drain, args=(stream, sim), daemon=True).start()
+    try:
+        _wait_ready(sim, began)
+        yield sim
+    finally:
+        if process.poll() is None:
+            sim.stop()
+
+
+def _wait_ready(sim: SimBaxter, began: float) -> None:
+    while True:
+        left = READY_TIMEOUT_S - (time.monotonic() - began)
+        try:
+            line = sim.lines.get(timeout=max(left, 0.01))
+        except queue.Empty:
+            raise TimeoutError(f"the simulated Baxter never got ready: {sim.said()}") from None
+        if line.startswith("simulated Baxter ready on "):
+            sim.started_s = time.monotonic() - began
+            return
+
+
+def kill_sim(sim: SimBaxter) -> None:
+    """SIGKILL: the node dies without a word (its goals, topics and registrations stay)."""
+    if sim.process.poll() is None:
+        sim.process.kill()
+    sim.process.wait(10.0)
+
+
+def ros_node(master: RosMaster) -> Any:
+    """rospy, initialised once in this process as a node on `master`."""
+    use_ros()
+    rospy = importlib.import_module("rospy")
+
+    if not rospy.core.is_initialized():
+        os.environ.update(
+            ROS_MASTER_URI=master.uri, ROS_HOSTNAME="127.0.0.1", ROS_LOG_DIR=str(master.log_dir)
+        )
+        rospy.init_node("tandem_tests", anonymous=True, disable_signals=True)
+        _node_master.append(master.uri)
+    elif _node_master and _node_master[0] != master.uri:
+        raise RuntimeError("this process's rospy node is on another master")
+    return rospy
+
+
+class JointWatch:
+    """The joint states heard on `/robot/joint_states`: (arrival, name -> position)."""
+
+    def __init__(self, master: RosMaster) -> None:
+        rospy = ros_node(master)
+        joint_state = importlib.import_module("sensor_msgs.msg").JointState
+
+        self._lock = threading.Lock()
+        self.samples: list[tuple[float, dict[str, float]]] = []
+        self._subscriber = rospy.Subscriber(
+            "/robot/joint_states", joint_state, self._on_state, queue_size=200
+        )
+
+    def _on_state(self, message: Any) -> None:
+        state = dict(zip(message.name, message.position, strict=True))
+        with self._lock:
+            self.samples.append((time.monotonic(), state))
+
+    def since(self, t: float) -> list[dict[str, float]]:
+        with self._lock:
+            return [state for at, state in self.samples if at >= t]
+
+    def latest(self, timeout_s: float = 10.0) -> dict[str, float]:
+        return self.wait_for(lambda _: True, timeout_s)
+
+    def wait_for(
+        self, fits: Callable[[dict[str, float]], bool], timeout_s: float = 10.0
+    ) -> dict[str, float]:
+        """The first state from now on that `fits` (TimeoutError if none comes)."""
+        began = time.monotonic()
+        while time.monotonic() - began < timeout_s:
+            for state in self.since(began):
+                if fits(state):
+                    return state
+            time.sleep(0.01)
+        raise TimeoutError(f"no fitting joint state in {timeout_s} s")
+
+    def close(self) -> None:
+        self._subscriber.unregister()

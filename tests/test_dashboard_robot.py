@@ -1,0 +1,120 @@
+"""The dashboard drives the simulated Baxter node over ROS (real roscore, real
+chromium): the Robot panel connects, an execution moves the robot, and the drawn
+arms follow the joint states it publishes; with no master the page says so and
+the motions stay drawn."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("playwright.sync_api")
+from playwright.sync_api import Browser, Page  # noqa: E402
+
+from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
+from app.execution.robot_link import farthest  # noqa: E402
+from app.robot.ros_env import free_port as free_ros_port  # noqa: E402
+from planner.feasibility.arms import joint_names  # noqa: E402
+from tests.plan_fixtures import free_port  # noqa: E402
+from tests.robot_graph import (  # noqa: E402
+    JointWatch,
+    ros_installed,
+    shared_master,
+    sim_baxter,
+)
+from tests.test_dashboard import (  # noqa: E402
+    browser,  # noqa: F401  (the module's fixture)
+    field,
+    open_page,
+    plan_shown,
+    wait_for,
+)
+
+pytestmark = pytest.mark.skipif(not ros_installed(), reason="ROS 1 is not installed: make robot")
+SHOTS = Path(__file__).resolve().parent / "artifacts"
+
+
+@pytest.fixture(scope="module")
+def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
+    data = tmp_path_factory.mktemp("data")
+    d = Dashboard("127.0.0.1", free_port(), "default.toml",
+                  DashboardSettings(workers=1, data_dir=str(data)))  # fmt: skip
+    yield d
+    d.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
+    page = open_page(browser, dashboard, height=1000)
+    yield page
+    page.close()
+
+
+def _connect(page: Page, uri: str) -> None:
+    if not field(page, "ROS master").is_visible():  # type: ignore[attr-defined]
+        page.get_by_text("Robot", exact=True).first.click()  # a folder, closed at first
+    box = field(page, "ROS master")
+    box.fill(uri)  # type: ignore[attr-defined]
+    box.press("Enter")  # type: ignore[attr-defined]
+    page.get_by_role("button", name="Connect", exact=True).click()
+
+
+def test_without_a_master_the_page_says_so_and_keeps_the_drawing(
+    page: Page, dashboard: Dashboard
+) -> None:
+    uri = f"http://127.0.0.1:{free_ros_port()}"
+    _connect(page, uri)
+    page.get_by_text("Not connected", exact=False).first.wait_for()
+    page.get_by_text(f"no ROS master answers at {uri}", exact=False).first.wait_for()
+    assert dashboard.robot.link is None
+
+
+def test_an_execution_moves_the_simulated_baxter_and_the_drawn_arm_follows(
+    page: Page, dashboard: Dashboard
+) -> None:
+    master = shared_master()
+    with sim_baxter(master):
+        watch = JointWatch(master)
+        _connect(page, master.uri)
+        page.get_by_text("the plan's motions move the robot", exact=False).first.wait_for(
+            timeout=20_000
+        )
+        assert dashboard.robot.link is not None
+        if not plan_shown(dashboard)():
+            page.get_by_role("button", name="Plan", exact=True).click()
+            wait_for(plan_shown(dashboard), 120)
+        dashboard.execution.speed.value = 0.0
+        wait_for(lambda: not dashboard.execution.start_button.disabled)
+        page.get_by_role("button", name="Execute plan", exact=True).click()
+        wait_for(lambda: dashboard.execution.executor is not None)
+        executor = dashboard.execution.executor
+        assert executor is not None
+        drawn: list[list[float]] = []  # the drawn left arm, while the robot moves
+        while not executor.done:
+            drawn.append(list(dashboard.bench.drawn_arms["left"]))
+            offer = dashboard.execution.clicks.pending() if dashboard.execution.clicks else None
+            if offer is not None:
+                button = page.get_by_role("button", name=offer.words[-1], exact=True)
+                try:
+                    button.click(timeout=5000)
+                except Exception:  # the buttons went as it was clicked: look again
+                    pass
+                wait_for(lambda o=offer: dashboard.execution.clicks.pending() != o or executor.done)
+            time.sleep(0.05)
+        assert executor.result == "goal", executor.events
+        page.screenshot(path=str(SHOTS / "dashboard-robot.png"))
+        # The drawn arms are where the robot says it is...
+        robot = watch.latest()
+        watch.close()
+        for arm in ("left", "right"):
+            names = joint_names(arm)
+            drawn_now = dashboard.bench.drawn_arms[arm]
+            assert farthest(drawn_now, [robot[n] for n in names]) <= 0.01
+    # ...and they moved through the robot's poses on the way (not only the ends).
+    distinct = {tuple(round(q, 2) for q in pose) for pose in drawn}
+    assert len(distinct) > 10
+    moves = [e for e in executor.events if e.kind == "actuation"]
+    assert moves and all(e.evidence and e.evidence.robot for e in moves)
