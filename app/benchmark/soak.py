@@ -243,7 +243,10 @@ def _answer(operator: Page, clicked: Locator, soak: _Soak) -> None:
     """Clicks an answer, and times until the server has removed the question's buttons."""
     from playwright.sync_api import Error as PageError
 
-    words = clicked.inner_text()
+    try:
+        words = clicked.inner_text(timeout=5_000)
+    except PageError:
+        return  # the buttons went between finding and reading them: look again
     t = time.perf_counter()
     soak.clicked_at.append(time.time())
     try:
