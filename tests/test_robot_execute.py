@@ -14,6 +14,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Literal
 
 import pytest
 
@@ -232,3 +233,43 @@ def test_pause_stops_the_arm_at_once_and_resume_finishes_the_motion() -> None:
     first = next(e for e in events if e.kind == "actuation")
     assert first.evidence is not None and first.evidence.robot is not None
     assert first.evidence.robot.off_rad <= REACHED_RAD  # resumed to the motion's end
+
+
+def test_retry_after_an_aborted_goal_goes_back_to_the_start_and_reaches_the_goal() -> None:
+    from app.cli.execute import load_plan
+    from app.execution.retargeting import retargeter_for
+    from app.execution.robot_drive import RobotDriver
+    from app.execution.robot_link import RobotFault
+    from app.execution.walker import Executor
+    from app.robot.ros_link import RosLink
+    from app.sources.outcomes import RandomSource
+
+    master = shared_master()
+    with sim_baxter(master):
+        rospy = ros_node(master)
+        std = __import__("std_msgs.msg", fromlist=["String"])
+        faults = rospy.Publisher("/tandem_sim/fault", std.String, queue_size=1, latch=True)
+        plan, scenario = load_plan("default.toml")
+        retarget = retargeter_for(scenario, plan)
+        link = RosLink(master.uri)
+        link.connect(10.0)
+        asked: list[RobotFault] = []
+
+        def retry(fault: RobotFault) -> Literal["retry"]:
+            asked.append(fault)
+            return "retry"
+
+        driver = RobotDriver(link, retarget.to_start if retarget else None, retry, 1.0)
+        events: list[ExecutionEvent] = []
+        executor = Executor(plan, RandomSource(2), [events.append], retarget=retarget, robot=driver)
+        faults.publish(std.String(data="abort"))  # the first goal is aborted halfway
+        result = executor.run()
+        faults.unregister()
+        link.close()
+    assert result == "goal"
+    assert [f.cause for f in asked] == ["aborted"]
+    fault = next(e for e in events if e.kind == "robot-fault")
+    retried = next(e for e in events if e.kind == "actuation" and e.seq > fault.seq)
+    robot = retried.evidence.robot if retried.evidence else None
+    # Stopped halfway, the arm went back to the motion's start first, then made it.
+    assert robot is not None and robot.to_start and robot.off_rad <= REACHED_RAD
