@@ -105,9 +105,34 @@ def test_five_seeds_reach_the_goal_on_the_simulated_baxter(tmp_path: Path) -> No
                 motion = motion or plan.nodes[event.node].motion
                 assert motion is not None
                 assert farthest(robot.reached, motion.path[-1]) <= REACHED_RAD
-        # After the first seed the arms start where the last run left them: a
-        # planned motion took them to the plan's start.
         assert sim.process.poll() is None
+    _exported_joint_states_are_the_robots(tmp_path / "seed1")
+
+
+def _exported_joint_states_are_the_robots(data: Path) -> None:
+    """The session's MCAP export carries the robot's own joint states, at their times."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    out = data / "session.mcap"
+    done = subprocess.run(
+        [sys.executable, "-m", "app.cli", "sessions", "export", "1", "--format", "mcap",
+         "-o", str(out), "--data-dir", str(data)],
+        cwd=ROOT, capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    _, events = _events(data)
+    expected = [
+        q for e in events if e.evidence and e.evidence.robot for _, q in e.evidence.robot.states
+    ]
+    with out.open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        seen = [
+            tuple(m.position)
+            for _, channel, _, m in reader.iter_decoded_messages()
+            if channel.topic == "/joint_states"
+        ]
+    assert seen == [tuple(q) for q in expected] and len(seen) > 10
 
 
 def test_no_master_at_start_is_one_line_and_exit_2(tmp_path: Path) -> None:

@@ -3,10 +3,13 @@
 
 Topics, each message stamped with its event's time (seconds since the epoch):
 
-- `/joint_states` (sensor_msgs/msg/JointState): the moving arm's 7 joints at each
-  waypoint of each motion (the re-targeted motion when the execution made one,
-  else the plan node's), the waypoints spread by a `WaypointTimes` (evenly from
-  the event's time to the next event's, until a timing model gives real ones);
+- `/joint_states` (sensor_msgs/msg/JointState): the moving arm's 7 joints along
+  each motion: as the robot reported them when a robot made it (the evidence's
+  `robot` states, from the event's start), else at each waypoint of the motion
+  (the re-targeted motion when the execution made one, else the plan node's),
+  the waypoints spread by a `WaypointTimes` (by default evenly over the event's
+  own start and end when the motion took time, else from the event's time to
+  the next event's);
 - `/tf` (tf2_msgs/msg/TFMessage): every part's pose in the `bench` frame as each
   step leaves it (at the end of the step's motion), when the caller can place
   parts (`PartsAt`: the world's geometry lives above the store);
@@ -30,6 +33,7 @@ from typing import IO, Any
 from mcap_ros2.writer import Writer
 
 from app.execution.events import REPAIR, ExecutionEvent, describe, is_step
+from app.execution.evidence import RobotMotion
 from app.sessions.ros_messages import (
     COMPRESSED_IMAGE,
     DEFINITIONS,
@@ -55,7 +59,9 @@ CAMERA_FRAME = "camera"
 # this long.
 LAST_MOTION_S = 1.0
 # Events that say something went other than planned are logged as warnings.
-WARNING_KINDS = frozenset({"interrupted", "repair", "too-long", "fell-back", "own-voice"})
+WARNING_KINDS = frozenset(
+    {"interrupted", "repair", "too-long", "fell-back", "own-voice", "robot-fault"}
+)
 
 # The parts' box centres (x, y, z in metres, bench frame) as node `node` of `plan`
 # leaves them.
@@ -75,6 +81,19 @@ def even_waypoint_times(
         return [event.time] * count
     step = (end - event.time) / (count - 1)
     return [event.time + i * step for i in range(count)]
+
+
+def session_waypoint_times(
+    event: ExecutionEvent, motion: Motion, next_time: float | None
+) -> list[float]:
+    """Evenly over the event's own start and end when its motion took time (a timed
+    session), else `even_waypoint_times`."""
+    start, end = event.start, event.end
+    count = len(motion.path)
+    if start is None or end is None or end <= start or count < 2:
+        return even_waypoint_times(event, motion, next_time)
+    step = (end - start) / (count - 1)
+    return [start + i * step for i in range(count)]
 
 
 @dataclass(frozen=True)
@@ -140,7 +159,7 @@ def write_session(
     run: SessionRun,
     *,
     parts_at: PartsAt | None = None,
-    waypoint_times: WaypointTimes = even_waypoint_times,
+    waypoint_times: WaypointTimes = session_waypoint_times,
 ) -> dict[str, int]:
     """Writes `run` to `out` as MCAP; the number of messages per topic."""
     mcap = McapSession(out)
@@ -149,7 +168,10 @@ def write_session(
         next_time = run.events[k + 1].time if k + 1 < len(run.events) else None
         motion = run.motion(k)
         settled = event.time
-        if motion is not None and motion.path:
+        robot = event.evidence.robot if event.evidence is not None else None
+        if robot is not None and robot.states:
+            settled = _write_robot(mcap, robot, event)
+        elif motion is not None and motion.path:
             times = waypoint_times(event, motion, next_time)
             _write_motion(mcap, motion, times)
             settled = times[-1]
@@ -178,16 +200,27 @@ def _describe_session(mcap: McapSession, run: SessionRun) -> None:
 
 
 def _write_motion(mcap: McapSession, motion: Motion, times: Sequence[float]) -> None:
-    names = list(motion.joints)
     for q, t in zip(motion.path, times, strict=True):
-        message = {
-            "header": {"stamp": stamp(t), "frame_id": ""},
-            "name": names,
-            "position": list(q),
-            "velocity": [],
-            "effort": [],
-        }
-        mcap.write(JOINT_TOPIC, JOINT_STATE, message, t)
+        _write_joints(mcap, motion.joints, q, t)
+
+
+def _write_robot(mcap: McapSession, robot: RobotMotion, event: ExecutionEvent) -> float:
+    """The robot's own joint states along the motion; the time of the last."""
+    began = event.start if event.start is not None else event.time - robot.states[-1][0]
+    for t, q in robot.states:
+        _write_joints(mcap, robot.joints, q, began + t)
+    return began + robot.states[-1][0]
+
+
+def _write_joints(mcap: McapSession, names: Sequence[str], q: Sequence[float], t: float) -> None:
+    message = {
+        "header": {"stamp": stamp(t), "frame_id": ""},
+        "name": list(names),
+        "position": list(q),
+        "velocity": [],
+        "effort": [],
+    }
+    mcap.write(JOINT_TOPIC, JOINT_STATE, message, t)
 
 
 def _write_parts(
