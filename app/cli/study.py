@@ -30,12 +30,13 @@ from app.sessions.studies import (
     Study,
     StudyError,
     StudySession,
+    condition_summary,
     ensure_table,
     finished,
     jobs,
     load_study,
+    plot_summary,
     study_sessions,
-    summarise,
     tag,
 )
 from planner.plan.model import Plan
@@ -270,10 +271,10 @@ def write_results(study: Study, data_dir: str, out: Path) -> list[Row]:
             rows.append({**_tags(job, session), **metrics})
     out.mkdir(parents=True, exist_ok=True)
     _write_csv(out / "sessions.csv", [*TAG_COLUMNS, *keys], rows)
-    summary = summary_rows(study, rows, keys)
+    summary = condition_summary([c.name for c in study.conditions], rows, keys)
     _write_csv(out / "summary.csv", SUMMARY_COLUMNS, summary)
     ids = [int(i) for r in rows if isinstance(i := r["session_id"], int)]
-    plot_study([c.name for c in study.conditions], summary, keys, out / "summary.png", ids)
+    plot_summary([c.name for c in study.conditions], summary, keys, out / "summary.png", ids)
     return rows
 
 
@@ -295,86 +296,8 @@ def session_metrics(events: Sequence[ExecutionEvent]) -> tuple[tuple[str, ...], 
     return METRIC_KEYS, measure(events).row()
 
 
-def summary_rows(study: Study, rows: Sequence[Row], keys: Sequence[str]) -> list[Row]:
-    """Per condition and numeric metric: n, mean, sd and the 95 % interval."""
-    out: list[Row] = []
-    for condition in study.conditions:
-        mine = [r for r in rows if r["condition"] == condition.name]
-        for key in keys:
-            values = [v for r in mine if isinstance(v := r.get(key), int | float)]
-            if not values and any(r.get(key) is not None for r in mine):
-                continue  # a column of words: no mean
-            s = summarise(values)
-            out.append({"condition": condition.name, "metric": key, "n": s.n,
-                        **{k: _round(v) for k, v in (("mean", s.mean), ("sd", s.sd),
-                           ("ci95_low", s.low), ("ci95_high", s.high))}})  # fmt: skip
-    return out
-
-
-def _round(value: float | None) -> float | None:
-    return None if value is None else round(value, 4)
-
-
 def _write_csv(path: Path, columns: Sequence[str], rows: Sequence[Row]) -> None:
     with path.open("w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(columns), extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
-
-
-# What the figure shows: the task time and Hoffman's fluency metrics, each as a
-# share of the task time (so tasks of different lengths compare).
-FIGURE_METRICS = ("task_s", "human_idle_share", "robot_idle_share", "concurrent_share",
-                  "functional_delay_share")  # fmt: skip
-
-
-def figure_metrics(keys: Sequence[str]) -> list[str]:
-    """The figure's metrics among `keys`; the first few of them if none is known."""
-    return [k for k in FIGURE_METRICS if k in keys] or list(keys[:6])
-
-
-def plot_study(
-    conditions: Sequence[str],
-    summary: Sequence[Row],
-    keys: Sequence[str],
-    path: Path,
-    sessions: Sequence[int] = (),
-) -> None:
-    """One panel per shown metric: each condition's mean with its 95 % interval. The
-    PNG's `Sessions` text names the sessions it summarises, so it can be checked."""
-    import matplotlib
-
-    matplotlib.use("Agg")  # before pyplot: files only, never a window
-    import matplotlib.pyplot as plt
-
-    shown = [k for k in figure_metrics(keys) if any(r["metric"] == k for r in summary)]
-    columns = min(3, max(1, len(shown)))
-    lines = -(-max(1, len(shown)) // columns)
-    fig, axes = plt.subplots(
-        lines, columns, figsize=(3 + 3.5 * columns, 1 + (0.3 * len(conditions) + 1.2) * lines),
-        squeeze=False,
-    )  # fmt: skip
-    ys = list(range(len(conditions)))
-    for i, (ax, key) in enumerate(zip(axes.flat, shown, strict=False)):
-        by_condition = {r["condition"]: r for r in summary if r["metric"] == key}
-        means = [_number(by_condition.get(c, {}).get("mean")) for c in conditions]
-        errors = [[m - _number(by_condition.get(c, {}).get("ci95_low"), m) for c, m in
-                   zip(conditions, means, strict=True)],
-                  [_number(by_condition.get(c, {}).get("ci95_high"), m) - m for c, m in
-                   zip(conditions, means, strict=True)]]  # fmt: skip
-        ax.barh(ys, means, xerr=errors, capsize=3, color="#7aa6c2")
-        ax.set_yticks(ys, conditions if i % columns == 0 else [""] * len(conditions))
-        ax.invert_yaxis()
-        ax.set_title(key)
-        ax.grid(axis="x", alpha=0.3)
-    for ax in list(axes.flat)[len(shown) :]:
-        ax.axis("off")
-    fig.suptitle("mean per condition, 95 % interval")
-    fig.tight_layout()
-    ids = ",".join(str(i) for i in sorted(sessions))
-    fig.savefig(path, dpi=100, metadata={"Title": "tandem study", "Sessions": ids})
-    plt.close(fig)
-
-
-def _number(value: object, default: float = 0.0) -> float:
-    return float(value) if isinstance(value, int | float) else default

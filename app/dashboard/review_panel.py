@@ -1,7 +1,16 @@
 """Reviewing stored sessions: list with filters, replay on a timeline, export.
 
-Drives the dashboard through its `Stage`; refreshes its list when an execution
-finishes (an `ExecutionFinished` event), see stage.py.
+An opened session shows its lanes (timeline_svg.py) under the "Timeline"
+slider; the slider, or a click on a bar, moves the tree's selection, the bench,
+the camera frame of that step and the transcript together (review_timeline.py
+words them), with the session's measures beside (review_metrics.py). Another
+session of the same plan can be drawn under it, with where the two parted
+(review_compare.py), and a study's table and figure shown (review_study.py).
+
+Drives the dashboard through its `Stage`; refreshes its lists when an execution
+finishes (an `ExecutionFinished` event), see stage.py. Every element is made
+once and its contents replaced, so a dashboard up all day reviewing session
+after session keeps the same page.
 """
 
 from __future__ import annotations
@@ -16,19 +25,31 @@ import cv2
 import numpy as np
 import viser
 
-from app.dashboard.log_lines import sentence
+from app.dashboard.review_compare import CompareView
+from app.dashboard.review_metrics import metrics_markdown
+from app.dashboard.review_study import StudyView
+from app.dashboard.review_timeline import (
+    BRIDGE,
+    HIDE_BRIDGE,
+    bridged_step,
+    clock_words,
+    lanes_html,
+    transcript,
+)
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
 from app.dashboard.tree_svg import Step
 from app.execution.events import REPAIR, RESULTS, ExecutionEvent
 from app.sessions.database import StoreError
 from app.sessions.store import SessionRecord, SessionStore, UnknownSession, iso
-from app.sessions.summary import summary
 from planner.plan.model import Plan, PlanFormatError
 
 ANY = "any"
 FILTERS = (ANY, *RESULTS)
 NONE = "(no sessions)"
 LISTED = 200  # sessions offered in the list, newest first
+# Plans read back, by hash: a large plan takes seconds to decode and the sessions
+# reviewed one after the other often share it; bounded, for a dashboard up all day.
+PLANS_KEPT = 4
 
 
 def session_label(s: SessionRecord) -> str:
@@ -47,30 +68,46 @@ class ReviewPanel:
         self._ids: dict[str, int] = {}
         self.opened: int | None = None  # set once a session is fully on screen
         self.plans: list[Plan] = []  # the plan of each event (repairs change it)
+        self._read_plans: dict[str, Plan] = {}  # the last plans read, by hash
         self.shown: Plan | None = None
+        self.shown_step = 0
         with gui.add_folder("Review sessions"):
-            self.scenario_filter: Any = gui.add_text("Scenario", "")
-            self.result_filter: Any = gui.add_dropdown("Result", FILTERS)
-            self.since_filter: Any = gui.add_text("Since (YYYY-MM-DD)", "")
-            gui.add_button("Refresh list").on_click(lambda _: self.refresh())
-            self.pick: Any = gui.add_dropdown("Session", [NONE])
-            self.open_button = gui.add_button("Open session")
-            self.open_button.on_click(lambda _: self.open(self.pick.value))
-            self.timeline: Any = gui.add_slider("Timeline", 0, 1, 1, 0, disabled=True)
+            self._build_list(gui)
+            # Steps counted from 1, as the summary and the comparison count them.
+            self.timeline: Any = gui.add_slider("Timeline", 1, 2, 1, 1, disabled=True)
             self.timeline.on_update(self._timeline_moved)
-            self.replay_button = gui.add_button("Replay")
-            self.replay_button.on_click(lambda _: self._replay())
-            export = gui.add_button("Export JSON")
-            export.on_click(lambda event: self._export(event.client))
+            # The lanes under the slider; a click on a bar comes back through the
+            # hidden field (review_timeline.py).
+            self.lanes = gui.add_html(HIDE_BRIDGE)
+            self.bridge: Any = gui.add_text("lanes events", BRIDGE)
+            self.bridge.on_update(lambda _: self._bar_clicked(str(self.bridge.value)))
+            # Another session of the plan, drawn under this one's lanes.
+            self.compare = CompareView(gui, store, lambda: self._draw_lanes(self.shown_step))
             self.summary = gui.add_markdown("")
             # The frame that decided a camera answer, beside its event.
             self.frame_caption = gui.add_markdown("")
             self.frame: Any = gui.add_image(np.zeros((240, 320, 3), np.uint8), format="jpeg",
                                             visible=False)  # fmt: skip
+            self.metrics = gui.add_markdown("")
+            self.replay_button = gui.add_button("Replay")
+            self.replay_button.on_click(lambda _: self._replay())
+            export = gui.add_button("Export JSON")
+            export.on_click(lambda event: self._export(event.client))
+        with gui.add_folder("Study", expand_by_default=False):
+            self.study = StudyView(gui, store)
         self.executing = False
         self.refresh()
         events.subscribe(ExecutionStarted, lambda _: self._set_executing(True))
         events.subscribe(ExecutionFinished, lambda _: self._set_executing(False))
+
+    def _build_list(self, gui: viser.GuiApi) -> None:
+        self.scenario_filter: Any = gui.add_text("Scenario", "")
+        self.result_filter: Any = gui.add_dropdown("Result", FILTERS)
+        self.since_filter: Any = gui.add_text("Since (YYYY-MM-DD)", "")
+        gui.add_button("Refresh list").on_click(lambda _: self.refresh())
+        self.pick: Any = gui.add_dropdown("Session", [NONE])
+        self.open_button = gui.add_button("Open session")
+        self.open_button.on_click(lambda _: self.open(self.pick.value))
 
     def _set_executing(self, executing: bool) -> None:
         """A review would replace the tree the execution runs on: not meanwhile."""
@@ -111,6 +148,7 @@ class ReviewPanel:
         full = len(listed) == LISTED
         more = f" The newest {LISTED} are listed: filter for others." if full else ""
         self.summary.content = f"{len(sessions)} session(s).{more}"
+        self.study.refresh()
 
     def open(self, label: str) -> None:
         session_id = self._ids.get(label)
@@ -119,19 +157,27 @@ class ReviewPanel:
         try:
             self.session = self.store.get(session_id)
             self.events = self.store.events(session_id)
-            plan = self.store.plan(self.session.plan_hash)
+            plan = self._plan(self.session.plan_hash)
             self.plans = self._plans_of(plan, self.events)
         except (UnknownSession, StoreError, PlanFormatError) as err:
             self.summary.content = f"**Error:** {err}"
             return
         self.shown = plan
         self.stage.show_plan(plan)
-        last = max(0, len(self.events) - 1)
-        self.timeline.max = max(1, last)
+        self.timeline.max = max(2, len(self.events))
         self.timeline.disabled = not self.events
-        self.timeline.value = 0
+        self.timeline.value = 1
+        self.metrics.content = metrics_markdown(self.events)
+        self.compare.offer(self.session, self.events)
         self.show_step(0)
         self.opened = session_id
+
+    def _plan(self, digest: str) -> Plan:
+        plan = self._read_plans.pop(digest, None) or self.store.plan(digest)
+        self._read_plans[digest] = plan  # the newest last
+        while len(self._read_plans) > PLANS_KEPT:
+            del self._read_plans[next(iter(self._read_plans))]
+        return plan
 
     def _plans_of(self, first: Plan, events: list[ExecutionEvent]) -> list[Plan]:
         """The plan each event ran on: the session's, then each repair's new plan
@@ -142,13 +188,30 @@ class ReviewPanel:
             plans.append(current)
             replanned = event.evidence.replanned if event.evidence is not None else None
             if event.kind == REPAIR and replanned is not None:
-                current = self.store.plan(replanned.plan)
+                current = self._plan(replanned.plan)
         return plans
 
     def _timeline_moved(self, event: Any) -> None:
         # Moves made here (open, replay) show their step themselves.
         if event.client is not None:
-            self.show_step(int(self.timeline.value))
+            self.show_step(int(self.timeline.value) - 1)
+
+    def _bar_clicked(self, value: str) -> None:
+        k = bridged_step(value)
+        if k is None or not self.events or self.executing:
+            return
+        self._replaying.clear()  # the user takes over from a replay
+        self.timeline.value = min(k, len(self.events) - 1) + 1
+        self.show_step(k)
+
+    def _draw_lanes(self, k: int) -> None:
+        """The session's lanes with the cursor at step `k` (and where a compared
+        session parted from it)."""
+        if not self.events:
+            self.lanes.content = HIDE_BRIDGE
+            return
+        first = lanes_html(self.events, k, self.compare.marked, until=self.compare.until)
+        self.lanes.content = HIDE_BRIDGE + first + self.compare.below
 
     def show_step(self, k: int) -> None:
         if not self.events or self.session is None or self.executing:
@@ -163,15 +226,12 @@ class ReviewPanel:
         # The tree marks the path to this step, as it did during the execution.
         steps = tuple(Step(e.node, e.source, e.confidence) for e in self.events[: k + 1])
         self.stage.show_path(steps, event.node)
-        spoken = [
-            sentence(e) + (f" *({heard})*" if (heard := summary(e)) else "")
-            for e in self.events[max(0, k - 7) : k + 1]
-        ]
+        self.shown_step = k
+        self._draw_lanes(k)
         s = self.session
-        self.summary.content = "\n\n".join(
-            [f"Session #{s.id} ({s.scenario}, {s.result}), step {k + 1}/{len(self.events)}"]
-            + spoken
-        )
+        where = (f"**Session #{s.id}** ({s.scenario}, {s.result}): step {k + 1}/"
+                 f"{len(self.events)}, {clock_words(self.events, k)}")  # fmt: skip
+        self.summary.content = "\n\n".join([where, *transcript(self.events, k)])
         self._show_frame(s.id, event)
 
     def _show_frame(self, session_id: int, event: ExecutionEvent) -> None:
@@ -204,7 +264,7 @@ class ReviewPanel:
             for k in range(len(self.events)):
                 if not self._replaying.is_set():
                     return  # closed meanwhile
-                self.timeline.value = k
+                self.timeline.value = k + 1
                 self.show_step(k)
                 time.sleep(0.3)
 

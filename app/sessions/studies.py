@@ -24,7 +24,7 @@ import tomllib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, cast, get_args
+from typing import Any, BinaryIO, Literal, cast, get_args
 
 from sqlite_utils import Database
 
@@ -291,3 +291,100 @@ def summarise(values: Sequence[float | int | None]) -> Summary:
     df = len(xs) - 1
     half = (_T95[df - 1] if df <= len(_T95) else 1.96) * sd / math.sqrt(len(xs))
     return Summary(len(xs), mean, sd, mean - half, mean + half)
+
+
+# -- a study read back from the store (the dashboard's review) -------------------------
+
+Row = dict[str, float | int | str | None]
+SUMMARY_KEYS = ("condition", "metric", "n", "mean", "sd", "ci95_low", "ci95_high")
+# What a study's figure shows: the task time and Hoffman's fluency metrics, each as
+# a share of the task time (so tasks of different lengths compare).
+FIGURE_METRICS = ("task_s", "human_idle_share", "robot_idle_share", "concurrent_share",
+                  "functional_delay_share")  # fmt: skip
+
+
+def study_names(db: Database) -> list[str]:
+    """The studies that tagged sessions in this store, by name."""
+    ensure_table(db)
+    return [row[0] for row in db.execute("select distinct study from study_sessions "
+                                         "order by study").fetchall()]  # fmt: skip
+
+
+def condition_summary(
+    conditions: Sequence[str], rows: Sequence[Row], keys: Sequence[str]
+) -> list[Row]:
+    """Per condition (each row's "condition") and numeric metric among `keys`: n,
+    mean, sd and the 95 % interval, keyed by `SUMMARY_KEYS`."""
+    out: list[Row] = []
+    for condition in conditions:
+        mine = [r for r in rows if r["condition"] == condition]
+        for key in keys:
+            values = [v for r in mine if isinstance(v := r.get(key), int | float)]
+            if not values and any(r.get(key) is not None for r in mine):
+                continue  # a column of words: no mean
+            s = summarise(values)
+            out.append({"condition": condition, "metric": key, "n": s.n,
+                        **{k: _round(v) for k, v in (("mean", s.mean), ("sd", s.sd),
+                           ("ci95_low", s.low), ("ci95_high", s.high))}})  # fmt: skip
+    return out
+
+
+def _round(value: float | None) -> float | None:
+    return None if value is None else round(value, 4)
+
+
+def figure_metrics(keys: Sequence[str]) -> list[str]:
+    """The figure's metrics among `keys`; the first few of them if none is known."""
+    return [k for k in FIGURE_METRICS if k in keys] or list(keys[:6])
+
+
+def plot_summary(
+    conditions: Sequence[str],
+    summary: Sequence[Row],
+    keys: Sequence[str],
+    target: Path | BinaryIO,
+    sessions: Sequence[int] = (),
+    *,
+    columns: int = 3,
+    dpi: int = 100,
+) -> None:
+    """One panel per shown metric: each condition's mean with its 95 % interval, as
+    a PNG to `target`, up to `columns` panels a line. The PNG's `Sessions` text names
+    the sessions it summarises, so it can be checked."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # before pyplot: files only, never a window
+    import matplotlib.pyplot as plt
+
+    shown = [k for k in figure_metrics(keys) if any(r["metric"] == k for r in summary)]
+    columns = min(columns, max(1, len(shown)))
+    lines = -(-max(1, len(shown)) // columns)
+    fig, axes = plt.subplots(
+        lines, columns, figsize=(3 + 3.5 * columns, 1 + (0.3 * len(conditions) + 1.2) * lines),
+        squeeze=False,
+    )  # fmt: skip
+    ys = list(range(len(conditions)))
+    for i, (ax, key) in enumerate(zip(axes.flat, shown, strict=False)):
+        by_condition = {r["condition"]: r for r in summary if r["metric"] == key}
+        means = [_number(by_condition.get(c, {}).get("mean")) for c in conditions]
+        errors = [[m - _number(by_condition.get(c, {}).get("ci95_low"), m) for c, m in
+                   zip(conditions, means, strict=True)],
+                  [_number(by_condition.get(c, {}).get("ci95_high"), m) - m for c, m in
+                   zip(conditions, means, strict=True)]]  # fmt: skip
+        ax.barh(ys, means, xerr=errors, capsize=3, color="#7aa6c2")
+        ax.set_yticks(ys, conditions if i % columns == 0 else [""] * len(conditions))
+        ax.invert_yaxis()
+        ax.set_title(key)
+        ax.grid(axis="x", alpha=0.3)
+    for ax in list(axes.flat)[len(shown) :]:
+        ax.axis("off")
+    fig.suptitle("mean per condition, 95 % interval")
+    fig.tight_layout()
+    ids = ",".join(str(i) for i in sorted(sessions))
+    fig.savefig(target, format="png", dpi=dpi,
+                metadata={"Title": "tandem study", "Sessions": ids})  # fmt: skip
+    plt.close(fig)
+
+
+def _number(value: object, default: float = 0.0) -> float:
+    return float(value) if isinstance(value, int | float) else default
