@@ -9,6 +9,7 @@ import io
 import shutil
 import time
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -76,6 +77,33 @@ def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
     page = open_page(browser, dashboard)
     yield page
     page.close()
+
+
+@contextmanager
+def served(data: Path, *, workers: int = 1, load_models: bool = False) -> Iterator[Dashboard]:
+    """A dashboard of default.toml on a free port, its store in `data`; closed after."""
+    settings = DashboardSettings(workers=workers, data_dir=str(data), load_models=load_models)
+    d = Dashboard("127.0.0.1", free_port(), "default.toml", settings)
+    try:
+        yield d
+    finally:
+        d.close()
+
+
+@contextmanager
+def opened(browser: Browser, dashboard: Dashboard, height: int = 1000) -> Iterator[Page]:
+    """A page of `dashboard` (`open_page`), closed after."""
+    page = open_page(browser, dashboard, height=height)
+    try:
+        yield page
+    finally:
+        page.close()
+
+
+def choose(page: Page, label: str, option: str) -> None:
+    """Picks `option` in the dropdown labelled `label`."""
+    field(page, label).click()  # type: ignore[attr-defined]
+    page.get_by_role("option", name=option, exact=True).click()
 
 
 def plan_shown(dashboard: Dashboard) -> Callable[[], bool]:

@@ -34,8 +34,9 @@ from playwright.sync_api import Browser, Page  # noqa: E402
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     browser,  # noqa: F401  (the module's fixture)
-    field,
-    open_page,
+    choose,
+    opened,
+    served,
     shot,
     wait_for,
 )
@@ -127,23 +128,15 @@ def data(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def dashboard(data: Path) -> Iterator[Dashboard]:
-    d = Dashboard("127.0.0.1", free_port(), "default.toml",
-                  DashboardSettings(workers=1, data_dir=str(data), load_models=False))  # fmt: skip
-    yield d
-    d.close()
+    with served(data) as d:
+        yield d
 
 
 @pytest.fixture(scope="module")
 def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
-    page = open_page(browser, dashboard, height=1000)
-    page.get_by_role("tab", name="Review").click()
-    yield page
-    page.close()
-
-
-def choose(page: Page, label: str, option: str) -> None:
-    field(page, label).click()  # type: ignore[attr-defined]
-    page.get_by_role("option", name=option, exact=True).click()
+    with opened(browser, dashboard) as page:
+        page.get_by_role("tab", name="Review").click()
+        yield page
 
 
 def open_session(page: Page, dashboard: Dashboard, session_id: int) -> None:

@@ -14,11 +14,10 @@ import pytest
 pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page  # noqa: E402
 
-from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
+from app.dashboard.server import Dashboard  # noqa: E402
 from app.execution.robot_link import farthest  # noqa: E402
 from app.robot.ros_env import free_port as free_ros_port  # noqa: E402
 from planner.feasibility.arms import joint_names  # noqa: E402
-from tests.plan_fixtures import free_port  # noqa: E402
 from tests.robot_graph import (  # noqa: E402
     JointWatch,
     ros_installed,
@@ -28,8 +27,9 @@ from tests.robot_graph import (  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     browser,  # noqa: F401  (the module's fixture)
     field,
-    open_page,
+    opened,
     plan_shown,
+    served,
     wait_for,
 )
 
@@ -39,18 +39,15 @@ SHOTS = Path(__file__).resolve().parent / "artifacts"
 
 @pytest.fixture(scope="module")
 def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
-    data = tmp_path_factory.mktemp("data")
-    d = Dashboard("127.0.0.1", free_port(), "default.toml",
-                  DashboardSettings(workers=1, data_dir=str(data)))  # fmt: skip
-    yield d
-    d.close()
+    # With the robot's meshes: the test checks the arms as drawn.
+    with served(tmp_path_factory.mktemp("data"), load_models=True) as d:
+        yield d
 
 
 @pytest.fixture(scope="module")
 def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
-    page = open_page(browser, dashboard, height=1000)
-    yield page
-    page.close()
+    with opened(browser, dashboard) as page:
+        yield page
 
 
 def _connect(page: Page, uri: str) -> None:

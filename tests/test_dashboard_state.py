@@ -10,14 +10,15 @@ import pytest
 pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, expect  # noqa: E402
 
-from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
+from app.dashboard.server import Dashboard  # noqa: E402
 from planner.resources import scenario_dir  # noqa: E402
-from tests.plan_fixtures import free_port  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     browser,  # noqa: F401  (the module's fixture)
+    choose,
     field,
-    open_page,
+    opened,
     plan_shown,
+    served,
     shot,
     wait_for,
 )
@@ -27,23 +28,14 @@ SHIPPED = scenario_dir()
 
 @pytest.fixture(scope="module")
 def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
-    data = tmp_path_factory.mktemp("data")
-    d = Dashboard("127.0.0.1", free_port(), "default.toml",
-                  DashboardSettings(workers=1, data_dir=str(data), load_models=False))  # fmt: skip
-    yield d
-    d.close()
+    with served(tmp_path_factory.mktemp("data")) as d:
+        yield d
 
 
 @pytest.fixture(scope="module")
 def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
-    page = open_page(browser, dashboard, height=1000)
-    yield page
-    page.close()
-
-
-def choose(page: Page, label: str, option: str) -> None:
-    field(page, label).click()  # type: ignore[attr-defined]
-    page.get_by_role("option", name=option, exact=True).click()
+    with opened(browser, dashboard) as page:
+        yield page
 
 
 def test_loading_a_scenario_drops_the_edits_of_the_one_before(

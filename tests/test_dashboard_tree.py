@@ -10,12 +10,12 @@ import pytest
 pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page  # noqa: E402
 
-from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
-from tests.plan_fixtures import free_port  # noqa: E402
+from app.dashboard.server import Dashboard  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     browser,  # noqa: F401  (the module's fixture)
-    open_page,
+    opened,
     plan_shown,
+    served,
     shot,
     wait_for,
 )
@@ -27,18 +27,14 @@ LABEL_BOXES = """() => [...document.querySelectorAll('svg.tandem-tree text.label
 
 @pytest.fixture(scope="module")
 def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
-    data = tmp_path_factory.mktemp("data")
-    d = Dashboard("127.0.0.1", free_port(), "default.toml",
-                  DashboardSettings(workers=2, data_dir=str(data), load_models=False))  # fmt: skip
-    yield d
-    d.close()
+    with served(tmp_path_factory.mktemp("data"), workers=2) as d:
+        yield d
 
 
 @pytest.fixture(scope="module")
 def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
-    page = open_page(browser, dashboard, height=1000)
-    yield page
-    page.close()
+    with opened(browser, dashboard) as page:
+        yield page
 
 
 # The first folded branch's badge inside the picture's frame.
