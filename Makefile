@@ -3,19 +3,33 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test bench lint system screenshots
+.PHONY: run test bench lint system robot screenshots
 
 # The dashboard soak in `make bench`: 5 pages for this long.
 SOAK_MINUTES ?= 10
 
 # Debian packages: chromium for the browser tests, espeak-ng as the offline
-# voice, PortAudio for the microphone and speakers. Installed once if missing.
-SYSTEM_PACKAGES := chromium espeak-ng libportaudio2
+# voice, PortAudio for the microphone and speakers, and ROS 1 (roscore, rospy,
+# actionlib and the messages Baxter's interface uses) for `--robot ros` and
+# `tandem robot sim`. Installed once if missing.
+ROS_PACKAGES := ros-core python3-rospy python3-actionlib python3-actionlib-msgs \
+	python3-trajectory-msgs python3-sensor-msgs python3-std-msgs python3-rosbag \
+	python3-genpy python3-genmsg python3-rosgraph
+SYSTEM_PACKAGES := chromium espeak-ng libportaudio2 $(ROS_PACKAGES)
 system:
 	test -x /usr/bin/chromium && test -x /usr/bin/espeak-ng && \
-		test -n "$$(ldconfig -p | grep libportaudio.so.2)" || { \
+		test -n "$$(ldconfig -p | grep libportaudio.so.2)" && test -x /usr/bin/roscore && \
+		/usr/bin/python3 -c 'import rospy, actionlib, genpy, genmsg, trajectory_msgs, sensor_msgs' \
+		2>/dev/null || { \
 		SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 		$$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $(SYSTEM_PACKAGES); }
+
+# ROS 1 for a robot (optional: the rest of Tandem runs without it): the Debian
+# packages above, then Baxter's message classes (control_msgs'
+# FollowJointTrajectory, baxter_core_msgs' grippers) generated from
+# app/robot/ros_definitions into the cache folder, as the first use would.
+robot: $(STAMP) system
+	$(BIN)/python -c 'from app.robot.ros_env import message_dir, use_ros; use_ros(); print(message_dir())'
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || python3 -m venv $(VENV)

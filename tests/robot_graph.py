@@ -156,7 +156,8 @@ class JointWatch:
         joint_state = importlib.import_module("sensor_msgs.msg").JointState
 
         self._lock = threading.Lock()
-        self.samples: list[tuple[float, dict[str, float]]] = []
+        # (arrival, time.monotonic(); the message's stamp, wall clock; name -> position)
+        self.samples: list[tuple[float, float, dict[str, float]]] = []
         self._subscriber = rospy.Subscriber(
             "/robot/joint_states", joint_state, self._on_state, queue_size=200
         )
@@ -164,14 +165,29 @@ class JointWatch:
     def _on_state(self, message: Any) -> None:
         state = dict(zip(message.name, message.position, strict=True))
         with self._lock:
-            self.samples.append((time.monotonic(), state))
+            self.samples.append((time.monotonic(), message.header.stamp.to_sec(), state))
 
     def since(self, t: float) -> list[dict[str, float]]:
+        """The states that arrived from `t` (time.monotonic()) on."""
         with self._lock:
-            return [state for at, state in self.samples if at >= t]
+            return [state for at, _, state in self.samples if at >= t]
 
     def latest(self, timeout_s: float = 10.0) -> dict[str, float]:
+        """The next state to arrive (it may have been published a moment ago)."""
         return self.wait_for(lambda _: True, timeout_s)
+
+    def current(self, timeout_s: float = 10.0) -> dict[str, float]:
+        """The first state published after now: what the robot does from this moment
+        (a state arriving now may have been published before an action's result)."""
+        now = time.time()  # rospy stamps with the wall clock
+        began = time.monotonic()
+        while time.monotonic() - began < timeout_s:
+            with self._lock:
+                later = [state for _, stamp, state in self.samples if stamp > now]
+            if later:
+                return later[0]
+            time.sleep(0.01)
+        raise TimeoutError(f"no joint state published in {timeout_s} s")
 
     def wait_for(
         self, fits: Callable[[dict[str, float]], bool], timeout_s: float = 10.0

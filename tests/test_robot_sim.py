@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import subprocess
+import sys
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -16,9 +17,10 @@ from typing import Any
 
 import pytest
 
-from app.robot.ros_env import RosMaster
+from app.robot.ros_env import RosMaster, free_port
 from planner.feasibility.arms import HOME, joint_names
 from tests.robot_graph import (
+    ROOT,
     JointWatch,
     SimBaxter,
     ros_installed,
@@ -141,7 +143,7 @@ def test_a_trajectory_is_followed_to_its_last_point(graph: Graph) -> None:
     assert _finish(client, graph) == SUCCEEDED
     result = client.get_result()
     assert result.error_code == 0, result.error_string
-    final = _left(graph.watch.wait_for(lambda s: True))
+    final = _left(graph.watch.current())
     assert max(abs(a - b) for a, b in zip(final, target, strict=True)) < 0.01
     # Along the way: states strictly between the start and the end, in order.
     s0 = [state["left_s0"] for state in graph.watch.since(began)]
@@ -177,7 +179,7 @@ def test_a_trajectory_beyond_the_limits_is_aborted_before_moving(graph: Graph) -
     assert (
         client.get_result().error_code == graph.control.FollowJointTrajectoryResult.INVALID_JOINTS
     )
-    after = _left(graph.watch.wait_for(lambda s: True))
+    after = _left(graph.watch.current())
     assert after == pytest.approx(before, abs=1e-9)
 
 
@@ -189,10 +191,10 @@ def test_a_cancel_stops_the_arm_short(graph: Graph) -> None:
     graph.watch.wait_for(lambda s: s["left_s0"] > start[0] + 0.05)
     client.cancel_goal()
     assert _finish(client, graph) == PREEMPTED
-    stopped = graph.watch.wait_for(lambda s: True)["left_s0"]
+    stopped = graph.watch.current()["left_s0"]
     # Still there a while later: the arm stopped, short of the target.
     time.sleep(0.5)
-    later = graph.watch.wait_for(lambda s: True)["left_s0"]
+    later = graph.watch.current()["left_s0"]
     assert later == pytest.approx(stopped, abs=1e-9)
     assert start[0] + 0.05 < later < target[0] - 0.05
 
@@ -209,7 +211,7 @@ def test_an_injected_abort_stops_the_next_goal_halfway(graph: Graph) -> None:
     result = client.get_result()
     assert result.error_code == graph.control.FollowJointTrajectoryResult.PATH_TOLERANCE_VIOLATED
     assert "fault injected" in result.error_string
-    e0 = graph.watch.wait_for(lambda s: True)["left_e0"]
+    e0 = graph.watch.current()["left_e0"]
     assert start[2] + 0.1 < e0 < target[2] - 0.1  # halfway: 0.4 rad
 
 
@@ -274,3 +276,24 @@ def _one_joint_state(master: RosMaster) -> dict[str, float]:
     (positions,) = [line for line in lines if line.startswith("position: ")]
     values = [float(v) for v in positions[len("position: ") :].strip("[]").split(",")]
     return dict(zip(names, values, strict=True))
+
+
+@pytest.mark.parametrize(
+    ("arguments", "said"),
+    [
+        (["--master", "http://127.0.0.1:{port}"], "no ROS master answers at http://127.0.0.1:"),
+        (["--start", '{"left_s9": 1.0}'], "--start: not arm joints: left_s9"),
+        (["--start", "left_s0=1"], "--start: not JSON nor home"),
+    ],
+)
+def test_what_the_node_cannot_run_on_is_one_line_and_exit_code_2(
+    arguments: list[str], said: str
+) -> None:
+    port = str(free_port())
+    given = [a.replace("{port}", port) for a in arguments]
+    run = subprocess.run(
+        [sys.executable, "-m", "app.cli", "robot", "sim", *given],
+        cwd=ROOT, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert run.returncode == 2
+    assert run.stderr.startswith(said) and run.stderr.count("\n") == 1, run.stderr

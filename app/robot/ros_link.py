@@ -47,6 +47,9 @@ TICK_S = 0.02
 # Baxter's electric gripper's hardware id in EndEffectorCommand.
 GRIPPER_ID = 65538
 # actionlib's goal states (actionlib_msgs/GoalStatus).
+# FollowJointTrajectoryResult's INVALID_GOAL and INVALID_JOINTS: a goal refused
+# before the arm moved (Baxter's server aborts such goals rather than rejecting).
+REFUSED_CODES = (-1, -2)
 # The master this process's rospy node is on (rospy allows one per process, for good).
 _NODE_MASTER: list[str] = []
 _NODE_LOCK = threading.Lock()
@@ -126,7 +129,9 @@ class RosLink:
     # -- the robot's state ----------------------------------------------------------
 
     def _on_joints(self, message: Any) -> None:
-        state = JointState(time.time(), dict(zip(message.name, message.position, strict=False)))
+        # The robot's own stamp: a state handled late was still measured when stamped.
+        stamp = message.header.stamp.to_sec() or time.time()
+        state = JointState(stamp, dict(zip(message.name, message.position, strict=False)))
         with self._lock:
             self._state = state
             self._received = time.monotonic()
@@ -174,7 +179,7 @@ class RosLink:
             with self._lock:
                 samples, self._samples = self._samples or [], None
         if cause is None:
-            self._fresh(time.monotonic())  # where the arm stopped, not a tick before
+            self._fresh(time.time())  # where the arm stopped, not a tick before
         last = dict(self._state.positions) if self._state is not None else {}
         if cause is None and gripper is not None:
             self._grip(trajectory.arm, gripper)
@@ -195,6 +200,8 @@ class RosLink:
             if state is not None:
                 result = client.get_result()
                 words = getattr(result, "error_string", "") if result is not None else ""
+                if state == "aborted" and getattr(result, "error_code", 0) in REFUSED_CODES:
+                    state = "rejected"  # refused before moving, as Baxter's server does
                 return state, f"the {trajectory.arm} arm's goal was {state}" + (
                     f": {words}" if words else ""
                 )
@@ -215,9 +222,14 @@ class RosLink:
             time.sleep(TICK_S)
 
     def _fresh(self, after: float) -> None:
-        """Waits for a joint state received after `after` (a tick; `SILENT_S` at most)."""
-        deadline = after + SILENT_S
-        while self._received <= after and time.monotonic() < deadline:
+        """Waits for a joint state stamped after `after` (epoch seconds: a tick or two,
+        `SILENT_S` at most); rospy's threads may hand over states late under load."""
+        deadline = time.monotonic() + SILENT_S
+        while time.monotonic() < deadline:
+            with self._lock:
+                state = self._state
+            if state is not None and state.stamp > after:
+                return
             time.sleep(TICK_S / 4)
 
     def _goal(self, trajectory: Trajectory) -> Any:

@@ -78,6 +78,7 @@ class SimNode:
         self.stop = stop
         self.tick_s = 1.0 / settings.rate
         self.muted = False
+        self._published = 0  # joint states sent
         self.abort_next = False
         self._abort_running = threading.Event()
         self._running = 0  # goals being followed
@@ -168,6 +169,7 @@ class SimNode:
         )
         message.header.stamp = rospy.Time.now()
         self._joints.publish(message)
+        self._published += 1
 
     def _publish_grippers(self) -> None:
         rospy, baxter = self.ros["rospy"], self.ros["baxter"]
@@ -250,10 +252,12 @@ class SimNode:
         while True:
             t = time.monotonic() - began
             if self.stop.is_set() or server.is_preempt_requested():
+                self._hold(motion)
                 text = f"stopped {max(t, 0.0):.2f} s into {motion.seconds:.2f} s"
                 server.set_preempted(self._result(None, text), text)
                 return
             if self._abort_running.is_set() or (abort_at is not None and t >= abort_at):
+                self._hold(motion)
                 text = f"fault injected: aborted {max(t, 0.0):.2f} s into {motion.seconds:.2f} s"
                 server.set_aborted(self._result("PATH_TOLERANCE_VIOLATED", text), text)
                 return
@@ -263,10 +267,26 @@ class SimNode:
                     _velocity(motion, t),
                 )
             if t >= motion.seconds:
+                self._shown()
                 text = f"reached the last of {len(motion.times) - 1} waypoints"
                 server.set_succeeded(self._result(None, text), text)
                 return
             self.stop.wait(self.tick_s)
+
+    def _hold(self, motion: Motion) -> None:
+        """The arm stays where it is (velocities 0), and the joint states say so."""
+        now = self.model.positions()
+        self.model.set({name: now[name] for name in motion.joints})
+        self._shown()
+
+    def _shown(self) -> None:
+        """Waits until a joint state read after this moment went out, so a client that
+        takes the robot's state when the result comes sees where the arm ended (two
+        publishes: the one under way may have read the joints before)."""
+        target = self._published + 2
+        deadline = time.monotonic() + 10 * self.tick_s
+        while self._published < target and not self.muted and time.monotonic() < deadline:
+            time.sleep(self.tick_s / 4)
 
     def _result(self, code: str | None, text: str) -> Any:
         result = self.ros["control"].FollowJointTrajectoryResult()
