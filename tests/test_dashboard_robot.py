@@ -21,6 +21,7 @@ from planner.feasibility.arms import joint_names  # noqa: E402
 from tests.robot_graph import (  # noqa: E402
     JointWatch,
     ros_installed,
+    ros_node,
     shared_master,
     sim_baxter,
 )
@@ -115,3 +116,40 @@ def test_an_execution_moves_the_simulated_baxter_and_the_drawn_arm_follows(
     assert len(distinct) > 10
     moves = [e for e in executor.events if e.kind == "actuation"]
     assert moves and all(e.evidence and e.evidence.robot for e in moves)
+
+
+def test_a_robot_fault_asks_the_operator_and_retry_goes_on(
+    page: Page, dashboard: Dashboard
+) -> None:
+    master = shared_master()
+    with sim_baxter(master):
+        rospy = ros_node(master)
+        std = __import__("std_msgs.msg", fromlist=["String"])
+        faults = rospy.Publisher("/tandem_sim/fault", std.String, queue_size=1, latch=True)
+        if dashboard.robot.link is None:
+            _connect(page, master.uri)
+            wait_for(lambda: dashboard.robot.link is not None, 20)
+        if not plan_shown(dashboard)():
+            page.get_by_role("button", name="Plan", exact=True).click()
+            wait_for(plan_shown(dashboard), 120)
+        dashboard.execution.speed.value = 0.0
+        wait_for(lambda: not dashboard.execution.start_button.disabled)
+        faults.publish(std.String(data="abort"))  # the first goal is aborted halfway
+        page.get_by_role("button", name="Execute plan", exact=True).click()
+        retry = page.get_by_role("button", name="Retry", exact=True)
+        retry.wait_for(timeout=60_000)  # the operator is asked
+        page.get_by_text("The robot stopped:", exact=False).first.wait_for()
+        page.screenshot(path=str(SHOTS / "dashboard-robot-fault.png"))
+        retry.click()
+        executor = dashboard.execution.executor
+        assert executor is not None
+        while not executor.done:
+            offer = dashboard.execution.clicks.pending() if dashboard.execution.clicks else None
+            if offer is not None:
+                dashboard.execution.clicks.click(offer.options[-1], offer.node_id)
+            time.sleep(0.05)
+        faults.unregister()
+    assert executor.result == "goal", executor.events
+    kinds = [e.kind for e in executor.events]
+    assert kinds.count("robot-fault") == 1
+    assert not retry.is_visible()  # the question went once answered

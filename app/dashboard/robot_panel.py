@@ -5,9 +5,10 @@ default) and a robot over ROS (Baxter, or `tandem robot sim`) at the master
 the page names. "Connect" reaches it; if nothing answers, the panel says why
 in one line and the motions stay drawn. Once connected the drawn arms follow
 the robot's joint states (at most `DRAW_HZ` a second), and every execution
-drives it through a `RobotDriver`. When the robot stops mid-motion the panel
-shows the cause and asks the operator: **Retry** (back to the motion's start,
-then again) or **Abort**; aborting the execution answers Abort.
+drives it through a `RobotDriver`. When the robot stops mid-motion the cause
+and the operator's choice show at the top of the Execution tab
+(`add_fault_controls`): **Retry** (back to the motion's start, then again) or
+**Abort the execution**; aborting the execution answers Abort.
 
 The execution panel asks `driver(to_start)` when an execution starts, and
 `give_up()` when it is aborted; it needs nothing else from this panel.
@@ -49,11 +50,20 @@ class RobotPanel:
             self.connect_button = gui.add_button("Connect")
             self.connect_button.on_click(lambda _: self._connect_clicked())
             self.status = gui.add_markdown(DRAWING)
-            self.retry_button = gui.add_button("Retry", visible=False, color="green")
-            self.retry_button.on_click(lambda _: self._choose("retry"))
-            self.abort_button = gui.add_button("Abort the execution", visible=False, color="red")
-            self.abort_button.on_click(lambda _: self._choose("abort"))
         self.moves.on_update(lambda _: self._moves_changed())
+        self.gui = gui
+        self.fault: Any = None
+        self.retry_button: Any = None
+        self.abort_button: Any = None
+
+    def add_fault_controls(self) -> None:
+        """The fault's line and the operator's two buttons, hidden until a fault, in
+        the container being built (the Execution tab, where the operator looks)."""
+        self.fault = self.gui.add_markdown("", visible=False)
+        self.retry_button = self.gui.add_button("Retry", visible=False, color="green")
+        self.retry_button.on_click(lambda _: self._choose("retry"))
+        self.abort_button = self.gui.add_button("Abort the execution", visible=False, color="red")
+        self.abort_button.on_click(lambda _: self._choose("abort"))
 
     # -- connecting -----------------------------------------------------------------
 
@@ -123,19 +133,30 @@ class RobotPanel:
 
     def _ask(self, fault: RobotFault) -> FaultChoice:
         """Runs in the executor's thread: shows the fault and waits for the operator."""
-        self.status.content = f"**The robot stopped:** {fault.line}. Retry, or abort?"
-        self.retry_button.visible = self.abort_button.visible = True
+        line = (
+            f"**The robot stopped:** {fault.line}. **Retry** (back to the motion's start), "
+            "or abort?"
+        )
+        self.status.content = line
+        self._show_question(line)
         with self._chosen:
             self._choice = None
             while self._choice is None:
                 self._chosen.wait()
             choice = self._choice
-        self.retry_button.visible = self.abort_button.visible = False
+        self._show_question(None)
         self.status.content = (
             "**Retrying:** back to the motion's start." if choice == "retry"
             else "**Aborted** after the robot stopped."
         )  # fmt: skip
         return choice
+
+    def _show_question(self, line: str | None) -> None:
+        for element in (self.fault, self.retry_button, self.abort_button):
+            if element is not None:
+                element.visible = line is not None
+        if self.fault is not None:
+            self.fault.content = line or ""
 
     def _choose(self, choice: FaultChoice) -> None:
         with self._chosen:

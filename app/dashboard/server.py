@@ -112,6 +112,7 @@ class Dashboard:
         self.speech = SpeechPanel(gui, screen, events, s.speak)
         self.robot = RobotPanel(gui, screen)
         with panels.execution_tab:
+            self.robot.add_fault_controls()  # above the execution's own controls
             self.execution = ExecutionPanel(
                 gui, screen, events, self.store, self.operator, self.speech.responses,
                 self.robot,

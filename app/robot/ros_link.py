@@ -198,6 +198,8 @@ class RosLink:
             if state == "succeeded":
                 return None, f"reached the end of {len(trajectory.points)} waypoints"
             if state is not None:
+                # The status can come before the result that carries the robot's words.
+                client.wait_for_result(self._ros["rospy"].Duration(CANCEL_WAIT_S))
                 result = client.get_result()
                 words = getattr(result, "error_string", "") if result is not None else ""
                 if state == "aborted" and getattr(result, "error_code", 0) in REFUSED_CODES:
