@@ -226,13 +226,13 @@ class ReviewPanel:
         # The tree marks the path to this step, as it did during the execution.
         steps = tuple(Step(e.node, e.source, e.confidence) for e in self.events[: k + 1])
         self.stage.show_path(steps, event.node)
-        self.shown_step = k
         self._draw_lanes(k)
         s = self.session
         where = (f"**Session #{s.id}** ({s.scenario}, {s.result}): step {k + 1}/"
                  f"{len(self.events)}, {clock_words(self.events, k)}")  # fmt: skip
         self.summary.content = "\n\n".join([where, *transcript(self.events, k)])
         self._show_frame(s.id, event)
+        self.shown_step = k  # last: the step is on screen in every part
 
     def _show_frame(self, session_id: int, event: ExecutionEvent) -> None:
         evidence = event.evidence
