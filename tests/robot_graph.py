@@ -9,7 +9,8 @@
   came back through the master); stopped with SIGTERM after. `kill_sim(sim)`
   kills it (SIGKILL) for fault tests.
 - `ros_node(master)` and `JointWatch`: a rospy node in this process, on the
-  shared master, and the joint states it hears.
+  shared master, and the joint states it hears; `FaultTopic`: the simulated
+  node's fault drills ("abort", "mute", "unmute"), sent from that node.
 """
 
 from __future__ import annotations
@@ -203,3 +204,21 @@ class JointWatch:
 
     def close(self) -> None:
         self._subscriber.unregister()
+
+
+class FaultTopic:
+    """Publishes the simulated node's faults on `/tandem_sim/fault` (latched, so a
+    fault sent before the node listens still reaches it)."""
+
+    def __init__(self, master: RosMaster) -> None:
+        rospy = ros_node(master)
+        self._string = importlib.import_module("std_msgs.msg").String
+        self._publisher = rospy.Publisher(
+            "/tandem_sim/fault", self._string, queue_size=1, latch=True
+        )
+
+    def send(self, fault: str) -> None:
+        self._publisher.publish(self._string(data=fault))
+
+    def close(self) -> None:
+        self._publisher.unregister()

@@ -19,9 +19,9 @@ from app.execution.robot_link import farthest  # noqa: E402
 from app.robot.ros_env import free_port as free_ros_port  # noqa: E402
 from planner.feasibility.arms import joint_names  # noqa: E402
 from tests.robot_graph import (  # noqa: E402
+    FaultTopic,
     JointWatch,
     ros_installed,
-    ros_node,
     shared_master,
     sim_baxter,
 )
@@ -123,9 +123,7 @@ def test_a_robot_fault_asks_the_operator_and_retry_goes_on(
 ) -> None:
     master = shared_master()
     with sim_baxter(master):
-        rospy = ros_node(master)
-        std = __import__("std_msgs.msg", fromlist=["String"])
-        faults = rospy.Publisher("/tandem_sim/fault", std.String, queue_size=1, latch=True)
+        faults = FaultTopic(master)
         if dashboard.robot.link is None:
             _connect(page, master.uri)
             wait_for(lambda: dashboard.robot.link is not None, 20)
@@ -134,7 +132,7 @@ def test_a_robot_fault_asks_the_operator_and_retry_goes_on(
             wait_for(plan_shown(dashboard), 120)
         dashboard.execution.speed.value = 0.0
         wait_for(lambda: not dashboard.execution.start_button.disabled)
-        faults.publish(std.String(data="abort"))  # the first goal is aborted halfway
+        faults.send("abort")  # the first goal is aborted halfway
         page.get_by_role("button", name="Execute plan", exact=True).click()
         retry = page.get_by_role("button", name="Retry", exact=True)
         retry.wait_for(timeout=60_000)  # the operator is asked
@@ -148,7 +146,7 @@ def test_a_robot_fault_asks_the_operator_and_retry_goes_on(
             if offer is not None:
                 dashboard.execution.clicks.click(offer.options[-1], offer.node_id)
             time.sleep(0.05)
-        faults.unregister()
+        faults.close()
     assert executor.result == "goal", executor.events
     kinds = [e.kind for e in executor.events]
     assert kinds.count("robot-fault") == 1

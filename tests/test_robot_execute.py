@@ -24,6 +24,7 @@ from app.robot.ros_env import RosMaster, free_port
 from app.sessions.store import DB_NAME, SessionStore
 from tests.robot_graph import (
     ROOT,
+    FaultTopic,
     JointWatch,
     kill_sim,
     ros_installed,
@@ -143,12 +144,18 @@ def test_no_master_at_start_is_one_line_and_exit_2(tmp_path: Path) -> None:
     assert not (tmp_path / DB_NAME).exists()  # nothing started, nothing stored
 
 
-def _fault(events: list[ExecutionEvent]) -> ExecutionEvent:
+def _stopped(data: Path, run: subprocess.Popen[str], cause: str) -> ExecutionEvent:
+    """The run ended aborted (exit 1) on one robot fault of `cause`, stored with its
+    line and the arm's last joint state; that fault's event."""
+    assert run.returncode == 1
+    result, events = _events(data)
+    assert result == "aborted"
     faults = [e for e in events if e.kind == "robot-fault"]
     assert len(faults) == 1
     fault = faults[0]
     assert fault.text and "\n" not in fault.text
     assert fault.evidence is not None and fault.evidence.robot is not None
+    assert fault.evidence.robot.cause == cause
     assert len(fault.evidence.robot.reached) == 7  # the arm's last joint state
     return fault
 
@@ -156,21 +163,14 @@ def _fault(events: list[ExecutionEvent]) -> ExecutionEvent:
 def test_an_aborted_goal_stops_the_run_with_the_cause(tmp_path: Path) -> None:
     master = shared_master()
     with sim_baxter(master):
-        rospy = ros_node(master)
-        std = __import__("std_msgs.msg", fromlist=["String"])
-        faults = rospy.Publisher("/tandem_sim/fault", std.String, queue_size=1, latch=True)
+        faults = FaultTopic(master)
         run = _execute(master.uri, tmp_path, 3, master.env(), ratio=0.5)
         _wait_for(_moved(tmp_path, 1), run)
-        faults.publish(std.String(data="abort"))  # the next goal is aborted halfway
+        faults.send("abort")  # the next goal is aborted halfway
         out, err = run.communicate(timeout=120)
-        faults.unregister()
-    assert run.returncode == 1
-    result, events = _events(tmp_path)
-    assert result == "aborted"
-    fault = _fault(events)
-    assert fault.evidence is not None and fault.evidence.robot is not None
-    assert fault.evidence.robot.cause == "aborted" and "aborted" in (fault.text or "")
-    assert "robot:" in err
+        faults.close()
+    fault = _stopped(tmp_path, run, "aborted")
+    assert "aborted" in (fault.text or "") and "robot:" in err
 
 
 def test_killing_the_node_mid_trajectory_stops_the_run(tmp_path: Path) -> None:
@@ -186,12 +186,7 @@ def test_killing_the_node_mid_trajectory_stops_the_run(tmp_path: Path) -> None:
         kill_sim(sim)
         run.communicate(timeout=120)
         watch.close()
-    assert run.returncode == 1
-    result, events = _events(tmp_path)
-    assert result == "aborted"
-    fault = _fault(events)
-    assert fault.evidence is not None and fault.evidence.robot is not None
-    assert fault.evidence.robot.cause == "silent"
+    fault = _stopped(tmp_path, run, "silent")
     assert "during the motion" in (fault.text or "")
 
 
@@ -201,12 +196,7 @@ def test_killing_the_master_stops_the_run(tmp_path: Path) -> None:
         _wait_for(_moved(tmp_path, 1), run)
         master.kill()
         run.communicate(timeout=120)
-    assert run.returncode == 1
-    result, events = _events(tmp_path)
-    assert result == "aborted"
-    fault = _fault(events)
-    assert fault.evidence is not None and fault.evidence.robot is not None
-    assert fault.evidence.robot.cause == "master-lost"
+    _stopped(tmp_path, run, "master-lost")
 
 
 def test_pause_stops_the_arm_at_once_and_resume_finishes_the_motion() -> None:
@@ -271,9 +261,7 @@ def test_retry_after_an_aborted_goal_goes_back_to_the_start_and_reaches_the_goal
 
     master = shared_master()
     with sim_baxter(master):
-        rospy = ros_node(master)
-        std = __import__("std_msgs.msg", fromlist=["String"])
-        faults = rospy.Publisher("/tandem_sim/fault", std.String, queue_size=1, latch=True)
+        faults = FaultTopic(master)
         plan, scenario = load_plan("default.toml")
         retarget = retargeter_for(scenario, plan)
         link = RosLink(master.uri)
@@ -287,9 +275,9 @@ def test_retry_after_an_aborted_goal_goes_back_to_the_start_and_reaches_the_goal
         driver = RobotDriver(link, retarget.to_start if retarget else None, retry, 1.0)
         events: list[ExecutionEvent] = []
         executor = Executor(plan, RandomSource(2), [events.append], retarget=retarget, robot=driver)
-        faults.publish(std.String(data="abort"))  # the first goal is aborted halfway
+        faults.send("abort")  # the first goal is aborted halfway
         result = executor.run()
-        faults.unregister()
+        faults.close()
         link.close()
     assert result == "goal"
     assert [f.cause for f in asked] == ["aborted"]
