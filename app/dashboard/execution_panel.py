@@ -276,8 +276,7 @@ class ExecutionPanel:
                 )  # fmt: skip
             return
         self._steps.append(Step(event.node, event.source, event.confidence))
-        self.stage.go_to(event.node, show_world=event.motion is None)
-        self.stage.show_path(tuple(self._steps), event.node)
+        self.stage.go_to(event.node, show_world=event.motion is None, path=tuple(self._steps))
         self.strip.content = strip_svg([e.node for e in self._steps], self._kinds())
         if event.kind == REPAIR and event.plan is not None:
             self.stage.show_plan(event.plan)  # the execution goes on with the new plan
@@ -309,8 +308,7 @@ class ExecutionPanel:
         if offer is None:
             return
         # The node asking is the one running: the tree and the selection show it.
-        self.stage.go_to(offer.node_id, show_world=False)
-        self.stage.show_path(tuple(self._steps), offer.node_id)
+        self.stage.go_to(offer.node_id, show_world=False, path=tuple(self._steps))
         with self._lock:
             # Sensing a part's shape or length asks what is on the bench, not the human.
             part = isinstance(offer.action, SenseShapeOf | SenseLengthOf)

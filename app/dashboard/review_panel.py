@@ -222,10 +222,9 @@ class ReviewPanel:
             # The execution changed plans here (a repair): so does the review.
             self.shown = self.plans[k]
             self.stage.show_plan(self.shown)
-        self.stage.go_to(event.node)
         # The tree marks the path to this step, as it did during the execution.
         steps = tuple(Step(e.node, e.source, e.confidence) for e in self.events[: k + 1])
-        self.stage.show_path(steps, event.node)
+        self.stage.go_to(event.node, path=steps)
         self._draw_lanes(k)
         s = self.session
         where = (f"**Session #{s.id}** ({s.scenario}, {s.result}): step {k + 1}/"

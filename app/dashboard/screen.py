@@ -121,10 +121,15 @@ class Screen:
             parent = lineage[-2] if len(lineage) > 1 else None
             self.events.publish(NodeSelected(node_id, plan.nodes[node_id], parent))
 
-    def go_to(self, node_id: str, *, show_world: bool = True) -> None:
-        """Open every collapsed ancestor of `node_id`, then select it."""
+    def go_to(
+        self, node_id: str, *, show_world: bool = True, path: tuple[Step, ...] | None = None
+    ) -> None:
+        """Open every collapsed ancestor of `node_id`, then select it; with `path`, the
+        run's steps are marked in the same picture (one drawing per step, not two)."""
         if self.tree.tree is not None and node_id in self.tree.tree.depth:
             self.tree.expand_to(node_id)
+        if path is not None:
+            self.tree.show_path(path, node_id, redraw=False)
         self.select(node_id, show_world=show_world)
 
     def toggle(self, node_id: str) -> None:

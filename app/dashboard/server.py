@@ -33,6 +33,7 @@ from app.dashboard.scenario_panel import ScenarioPanel
 from app.dashboard.screen import Screen
 from app.dashboard.speech_panel import Speak, SpeechPanel
 from app.dashboard.stage import Events
+from app.dashboard.tree_svg import Step
 from app.dashboard.tree_view import TreeView
 from app.dashboard.view_panel import ViewPanel
 from app.sessions.database import StoreError
@@ -201,8 +202,10 @@ class Dashboard:
     def select(self, node_id: str, *, show_world: bool = True) -> None:
         self.screen.select(node_id, show_world=show_world)
 
-    def go_to(self, node_id: str, *, show_world: bool = True) -> None:
-        self.screen.go_to(node_id, show_world=show_world)
+    def go_to(
+        self, node_id: str, *, show_world: bool = True, path: tuple[Step, ...] | None = None
+    ) -> None:
+        self.screen.go_to(node_id, show_world=show_world, path=path)
 
     def show_world(self, node_id: str) -> None:
         self.screen.show_world(node_id)

@@ -49,8 +49,11 @@ class Stage(Protocol):
         """Draw a complete plan in the tree and select its root."""
         ...
 
-    def go_to(self, node_id: str, *, show_world: bool = True) -> None:
-        """Open the tree to a node and select it; the bench as the node leaves it."""
+    def go_to(
+        self, node_id: str, *, show_world: bool = True, path: tuple[Step, ...] | None = None
+    ) -> None:
+        """Open the tree to a node and select it; the bench as the node leaves it; with
+        `path`, an execution's (or a review's) steps so far, `node_id` running now."""
         ...
 
     def show_world(self, node_id: str) -> None:

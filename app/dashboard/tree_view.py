@@ -207,13 +207,17 @@ class TreeView:
             self._keep_in_view(node_id)
             self.redraw()
 
-    def show_path(self, path: tuple[Step, ...], current: str | None) -> None:
-        """An execution's (or a review's) steps so far; `current` runs now."""
+    def show_path(
+        self, path: tuple[Step, ...], current: str | None, *, redraw: bool = True
+    ) -> None:
+        """An execution's (or a review's) steps so far; `current` runs now. Without
+        `redraw` the marks wait for the next picture (a selection that follows)."""
         with self._lock:
             self.marks = TreeMarks(self.marks.selected, current, path, self.marks.matches)
             if current is not None and bool(self.follow.value):
                 self._centre(current)
-            self.redraw()
+            if redraw:
+                self.redraw()
 
     # -- where the picture looks ------------------------------------------------------
 
