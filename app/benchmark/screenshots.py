@@ -78,10 +78,16 @@ def execution(out: Path, size: tuple[int, int], review: bool) -> None:
         dashboard.execution.speed.value = 0.0
         answer(dashboard, page, None)
         session = dashboard.execution.session_id
+        # The review opens a session once the execution has ended (its finish is
+        # announced from the executor's thread, a moment after the last answer).
+        wait_for(lambda: not dashboard.review.executing)
         dashboard.review.refresh()
         label = next(k for k, v in dashboard.review._ids.items() if v == session)
         dashboard.review.open(label)
-        dashboard.review.show_step(len(dashboard.review.events) // 2)
+        wait_for(lambda: dashboard.review.opened == session)
+        half = len(dashboard.review.events) // 2
+        dashboard.review.timeline.value = half + 1  # where the slider stands (steps from 1)
+        dashboard.review.show_step(half)
         page.get_by_role("tab", name="Review").click()
         time.sleep(1.0)
         shoot(page, out / "review.png")
