@@ -32,7 +32,7 @@ from tests.test_dashboard import (  # noqa: E402
     CHROMIUM,
     free_port,
     open_page,
-    plan_shown,
+    plan_clicked,
     shot,
     wait_for,
 )
@@ -145,8 +145,7 @@ def execute_clicking_first(page: Page, dashboard: Dashboard) -> Executor:
 
 
 def test_the_camera_answers_an_execution(page: Page, dashboard: Dashboard) -> None:
-    page.get_by_role("button", name="Plan", exact=True).click()
-    wait_for(plan_shown(dashboard), 120)
+    plan_clicked(page, dashboard, 120)
     executor = execute_clicking_first(page, dashboard)
     assert executor.result == "goal", executor.events
     session_id = dashboard.execution.session_id
@@ -197,8 +196,7 @@ def test_a_surprise_the_live_camera_sees_is_repaired(page: Page, dashboard: Dash
         wait_for(lambda: isinstance(dashboard.execution.camera, LiveAnswers)
                  and dashboard.execution.camera.human is human, 30)  # fmt: skip
         if dashboard.plan is None or dashboard.plan.partial:
-            page.get_by_role("button", name="Plan", exact=True).click()
-            wait_for(plan_shown(dashboard), 120)
+            plan_clicked(page, dashboard, 120)
         executor = execute_clicking_first(page, dashboard)
     finally:
         panel.simulated_human = SimulatedHuman

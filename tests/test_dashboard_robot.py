@@ -29,6 +29,7 @@ from tests.test_dashboard import (  # noqa: E402
     browser,  # noqa: F401  (the module's fixture)
     field,
     opened,
+    plan_clicked,
     plan_shown,
     served,
     wait_for,
@@ -82,8 +83,7 @@ def test_an_execution_moves_the_simulated_baxter_and_the_drawn_arm_follows(
         )
         assert dashboard.robot.link is not None
         if not plan_shown(dashboard)():
-            page.get_by_role("button", name="Plan", exact=True).click()
-            wait_for(plan_shown(dashboard), 120)
+            plan_clicked(page, dashboard, 120)
         dashboard.execution.speed.value = 0.0
         wait_for(lambda: not dashboard.execution.start_button.disabled)
         page.get_by_role("button", name="Execute plan", exact=True).click()
@@ -138,8 +138,7 @@ def test_a_robot_fault_asks_the_operator_and_retry_goes_on(
             _connect(page, master.uri)
             wait_for(lambda: dashboard.robot.link is not None, 20)
         if not plan_shown(dashboard)():
-            page.get_by_role("button", name="Plan", exact=True).click()
-            wait_for(plan_shown(dashboard), 120)
+            plan_clicked(page, dashboard, 120)
         dashboard.execution.speed.value = 0.0
         wait_for(lambda: not dashboard.execution.start_button.disabled)
         faults.send("abort")  # the first goal is aborted halfway

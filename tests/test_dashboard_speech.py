@@ -17,7 +17,7 @@ from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from tests.plan_fixtures import KOREAN_DEFAULT  # noqa: E402
-from tests.test_dashboard import free_port, open_page, plan_shown, shot, wait_for  # noqa: E402
+from tests.test_dashboard import free_port, open_page, plan_clicked, shot, wait_for  # noqa: E402
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 AUDIO_SRC = re.compile(r'<audio autoplay[^>]*src="data:audio/(wav|mpeg);base64,([A-Za-z0-9+/=]+)"')
@@ -75,8 +75,7 @@ def test_executing_sends_spoken_lines_to_the_page_and_the_voice_answers(
     ).locator("input").first.click()
     page.get_by_role("option", name="simulated voice", exact=True).click()
     wait_for(lambda: speech.mode.value == "simulated voice", 10)
-    page.get_by_role("button", name="Plan", exact=True).click()
-    wait_for(plan_shown(dashboard), 120)
+    plan_clicked(page, dashboard, 120)
     dashboard.execution.speed.value = 0.0
     wait_for(lambda: not dashboard.execution.start_button.disabled)
     page.get_by_role("button", name="Execute plan", exact=True).click()

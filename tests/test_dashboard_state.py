@@ -17,6 +17,7 @@ from tests.test_dashboard import (  # noqa: E402
     choose,
     field,
     opened,
+    plan_clicked,
     plan_shown,
     served,
     shot,
@@ -66,8 +67,7 @@ def test_loading_a_scenario_drops_the_edits_of_the_one_before(
 def test_loading_a_scenario_resets_plan_statistics_selection_and_log(
     page: Page, dashboard: Dashboard
 ) -> None:
-    page.get_by_role("button", name="Plan", exact=True).click()
-    wait_for(plan_shown(dashboard), 120)
+    plan_clicked(page, dashboard, 120)
     page.get_by_text("Statistics", exact=True).first.click()  # a folder, closed at first
     page.get_by_text("meaning").wait_for()  # the statistics
     dashboard.execution.speed.value = 0.0
@@ -97,8 +97,7 @@ def test_loading_a_scenario_resets_plan_statistics_selection_and_log(
 
 
 def test_buttons_and_waits_say_what_is_happening(page: Page, dashboard: Dashboard) -> None:
-    page.get_by_role("button", name="Plan", exact=True).click()
-    wait_for(plan_shown(dashboard), 120)
+    plan_clicked(page, dashboard, 120)
     execution = dashboard.execution
     execution.speed.value = 0.0
     page.get_by_role("button", name="Execute plan", exact=True).click()
@@ -128,8 +127,7 @@ def test_buttons_and_waits_say_what_is_happening(page: Page, dashboard: Dashboar
 
 def test_the_page_says_preparing_before_the_first_step(page: Page, dashboard: Dashboard) -> None:
     if not plan_shown(dashboard)():
-        page.get_by_role("button", name="Plan", exact=True).click()
-        wait_for(plan_shown(dashboard), 120)
+        plan_clicked(page, dashboard, 120)
     execution = dashboard.execution
     execution.start()  # as the button does: the line is set before preparing starts
     assert str(execution.status.content).startswith("**Preparing the execution")

@@ -14,7 +14,7 @@ from app.dashboard.server import Dashboard  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     browser,  # noqa: F401  (the module's fixture)
     opened,
-    plan_shown,
+    plan_clicked,
     served,
     shot,
     wait_for,
@@ -65,8 +65,7 @@ def view_box(page: Page) -> str:
 def plan_in_page(page: Page, dashboard: Dashboard, scenario: str) -> None:
     if dashboard.loaded is None or dashboard.loaded.source != scenario:
         dashboard.open_named(scenario)
-    page.get_by_role("button", name="Plan", exact=True).click()
-    wait_for(plan_shown(dashboard), 300)
+    plan_clicked(page, dashboard, 300)
     page.locator("svg.tandem-tree").wait_for()
 
 
