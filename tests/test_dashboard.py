@@ -21,6 +21,7 @@ from playwright.sync_api import Browser, Page, expect, sync_playwright  # noqa: 
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from app.dashboard.tree_svg import CURRENT, PATH  # noqa: E402
+from app.execution.walker import Executor  # noqa: E402
 from tests.plan_fixtures import free_port  # noqa: E402
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
@@ -112,6 +113,17 @@ def plan_shown(dashboard: Dashboard) -> Callable[[], bool]:
         return plan is not None and not plan.partial and dashboard.selected == plan.root
 
     return shown
+
+
+def execute_clicked(page: Page, dashboard: Dashboard, timeout: float = 30) -> Executor:
+    """Clicks "Execute plan" and returns the new execution's executor (not the last one's,
+    which stays on the panel until the click reaches the server)."""
+    before = dashboard.execution.executor
+    page.get_by_role("button", name="Execute plan", exact=True).click()
+    wait_for(lambda: dashboard.execution.executor not in (None, before), timeout)
+    executor = dashboard.execution.executor
+    assert executor is not None
+    return executor
 
 
 def plan_clicked(page: Page, dashboard: Dashboard, timeout: float = 120) -> None:

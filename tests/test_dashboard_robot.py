@@ -27,6 +27,7 @@ from tests.robot_graph import (  # noqa: E402
 )
 from tests.test_dashboard import (  # noqa: E402
     browser,  # noqa: F401  (the module's fixture)
+    execute_clicked,
     field,
     opened,
     plan_clicked,
@@ -86,10 +87,7 @@ def test_an_execution_moves_the_simulated_baxter_and_the_drawn_arm_follows(
             plan_clicked(page, dashboard, 120)
         dashboard.execution.speed.value = 0.0
         wait_for(lambda: not dashboard.execution.start_button.disabled)
-        page.get_by_role("button", name="Execute plan", exact=True).click()
-        wait_for(lambda: dashboard.execution.executor is not None)
-        executor = dashboard.execution.executor
-        assert executor is not None
+        executor = execute_clicked(page, dashboard)
         drawn: list[list[float]] = []  # the drawn left arm, while the robot moves
         while not executor.done:
             drawn.append(list(dashboard.bench.drawn_arms["left"]))

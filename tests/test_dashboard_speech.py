@@ -17,7 +17,14 @@ from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from tests.plan_fixtures import KOREAN_DEFAULT  # noqa: E402
-from tests.test_dashboard import free_port, open_page, plan_clicked, shot, wait_for  # noqa: E402
+from tests.test_dashboard import (  # noqa: E402
+    execute_clicked,
+    free_port,
+    open_page,
+    plan_clicked,
+    shot,
+    wait_for,
+)
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 AUDIO_SRC = re.compile(r'<audio autoplay[^>]*src="data:audio/(wav|mpeg);base64,([A-Za-z0-9+/=]+)"')
@@ -78,10 +85,8 @@ def test_executing_sends_spoken_lines_to_the_page_and_the_voice_answers(
     plan_clicked(page, dashboard, 120)
     dashboard.execution.speed.value = 0.0
     wait_for(lambda: not dashboard.execution.start_button.disabled)
-    page.get_by_role("button", name="Execute plan", exact=True).click()
-    wait_for(lambda: dashboard.execution.executor is not None, 30)
-    executor = dashboard.execution.executor
-    assert executor is not None and dashboard.plan is not None
+    executor = execute_clicked(page, dashboard)
+    assert dashboard.plan is not None
     plan = dashboard.plan
     received: list[bytes] = []
     deadline = time.monotonic() + 120
