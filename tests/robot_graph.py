@@ -170,8 +170,12 @@ class JointWatch:
 
     def since(self, t: float) -> list[dict[str, float]]:
         """The states that arrived from `t` (time.monotonic()) on."""
+        return [state for _, state in self.arrived_since(t)]
+
+    def arrived_since(self, t: float) -> list[tuple[float, dict[str, float]]]:
+        """The states that arrived from `t` on, each with when it arrived."""
         with self._lock:
-            return [state for at, _, state in self.samples if at >= t]
+            return [(at, state) for at, _, state in self.samples if at >= t]
 
     def latest(self, timeout_s: float = 10.0) -> dict[str, float]:
         """The next state to arrive (it may have been published a moment ago)."""

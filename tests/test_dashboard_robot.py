@@ -27,6 +27,7 @@ from tests.robot_graph import (  # noqa: E402
 )
 from tests.test_dashboard import (  # noqa: E402
     browser,  # noqa: F401  (the module's fixture)
+    choose,
     execute_clicked,
     field,
     opened,
@@ -66,6 +67,10 @@ def test_without_a_master_the_page_says_so_and_keeps_the_drawing(
     page: Page, dashboard: Dashboard
 ) -> None:
     uri = f"http://127.0.0.1:{free_ros_port()}"
+    page.get_by_text("Robot", exact=True).first.click()  # a folder, closed at first
+    choose(page, "Moves", "robot over ROS")  # chosen, not yet connected: the page says so
+    page.get_by_text("Press Connect to reach the robot", exact=False).first.wait_for()
+    assert dashboard.robot.link is None
     _connect(page, uri)
     page.get_by_text("Not connected", exact=False).first.wait_for()
     page.get_by_text(f"no ROS master answers at {uri}", exact=False).first.wait_for()

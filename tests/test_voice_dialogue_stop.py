@@ -38,7 +38,9 @@ def plan() -> Plan:
     return korean_plan()
 
 
-def _live(recognizer: Recognizer, cache: Path, seed: int) -> tuple[VoiceResponses, SimulatedVoice]:
+def live_dialogue(
+    recognizer: Recognizer, cache: Path, seed: int
+) -> tuple[VoiceResponses, SimulatedVoice]:
     voice = LiveDialogue(recognizer.language, recognizer, cache_dir=cache).responses(
         RandomSource(seed), seed=seed
     )
@@ -52,7 +54,7 @@ def _heard(voice: VoiceResponses) -> list[Hearing]:
     return voice.ear.heard
 
 
-def _until(condition: Callable[[], bool], within_s: float = 20.0) -> bool:
+def until(condition: Callable[[], bool], within_s: float = 20.0) -> bool:
     """Waits for `condition` (a real-time dialogue), giving up after `within_s`."""
     deadline = time.monotonic() + within_s
     while not condition():
@@ -62,7 +64,7 @@ def _until(condition: Callable[[], bool], within_s: float = 20.0) -> bool:
     return True
 
 
-def _say_once(human: SimulatedVoice, text: str, said: list[Span], delay_s: float) -> None:
+def say_once(human: SimulatedVoice, text: str, said: list[Span], delay_s: float) -> None:
     """The human says `text` `delay_s` from now, once."""
     if not said:
         assert human.room is not None
@@ -71,17 +73,17 @@ def _say_once(human: SimulatedVoice, text: str, said: list[Span], delay_s: float
         said.append(human.spoken_at)
 
 
-def _resume(voice: VoiceResponses, human: SimulatedVoice, executor: Executor) -> None:
+def resume_by_voice(voice: VoiceResponses, human: SimulatedVoice, executor: Executor) -> None:
     """Once the robot has said it stopped, the human says 계속해 (계속) and it goes on;
     not heard, the human says it again, as a person would (at most three times)."""
     stopped = STOPPED["ko"]
-    assert _until(lambda: any(line.text == stopped for line in voice.robot.lines))
+    assert until(lambda: any(line.text == stopped for line in voice.robot.lines))
     room = human.room
     assert room is not None
     for words in ("계속해", "계속", "계속해"):
-        assert _until(lambda: room.now_s() > room.robot_until_s)
+        assert until(lambda: room.now_s() > room.robot_until_s)
         human.say_at(words, room.now_s())
-        if _until(lambda: not executor.paused, within_s=4.0):
+        if until(lambda: not executor.paused, within_s=4.0):
             break
     assert not executor.paused, _heard(voice)
     assert executor.wait(120) == "goal"
@@ -111,18 +113,18 @@ def _check_pause_and_resume(plan: Plan, voice: VoiceResponses, executor: Executo
 def test_stop_halts_an_arm_motion_at_its_next_waypoint_and_continue_resumes(
     recognizer: Recognizer, plan: Plan, tmp_path: Path
 ) -> None:
-    voice, human = _live(recognizer, tmp_path, seed=1)
+    voice, human = live_dialogue(recognizer, tmp_path, seed=1)
     # A motion takes 0.1 s a waypoint, so the first one lasts 3 s.
     executor = Executor(plan, voice.source, narrator=voice.robot, waypoint_s=0.1)
     said: list[Span] = []
 
     def on_event(event: ExecutionEvent) -> None:
         if event.kind == "actuation":  # the first motion starts: the human says stop
-            _say_once(human, "멈춰", said, 0.2)
+            say_once(human, "멈춰", said, 0.2)
 
     executor.listeners.append(on_event)
     executor.start()
-    assert _until(lambda: executor.paused), _heard(voice)
+    assert until(lambda: executor.paused), _heard(voice)
     at_pause = executor.waypoint
     assert at_pause is not None, "the pause came after the motion"
     time.sleep(0.6)  # six waypoints' time: the arm must not move on
@@ -131,7 +133,7 @@ def test_stop_halts_an_arm_motion_at_its_next_waypoint_and_continue_resumes(
     assert at_pause.index <= halted.index <= at_pause.index + 1
     assert halted.index < halted.count - 1  # stopped inside the motion
     assert executor.waypoint == halted
-    _resume(voice, human, executor)
+    resume_by_voice(voice, human, executor)
     _check_pause_and_resume(plan, voice, executor)
     paused = next(e for e in executor.events if e.kind == "paused")
     assert paused.node == halted.node
@@ -140,7 +142,7 @@ def test_stop_halts_an_arm_motion_at_its_next_waypoint_and_continue_resumes(
 def test_stop_said_over_the_robots_own_voice_is_heard(
     recognizer: Recognizer, plan: Plan, tmp_path: Path
 ) -> None:
-    voice, human = _live(recognizer, tmp_path, seed=2)
+    voice, human = live_dialogue(recognizer, tmp_path, seed=2)
     assert voice.room is not None
     room = voice.room
     said: list[Span] = []
@@ -152,21 +154,21 @@ def test_stop_said_over_the_robots_own_voice_is_heard(
         start = max(room.now_s(), room.robot_until_s)
         speaking.append((line.text, start, start + line.utterance.duration_s))
         # The greeting starts: 0.5 s into it, the human says stop over it.
-        _say_once(human, "멈춰", said, 0.5)
+        say_once(human, "멈춰", said, 0.5)
 
     voice.robot.listeners.insert(0, on_line)
     executor = Executor(plan, voice.source, narrator=voice.robot)
     executor.start()
-    assert _until(lambda: executor.paused), _heard(voice)
+    assert until(lambda: executor.paused), _heard(voice)
     _, greeting_from, greeting_to = speaking[0]
     assert greeting_from < said[0].speech_start_s < said[0].speech_end_s < greeting_to
     # The robot fell silent before the end of its greeting (its next line, that it
     # stopped, starts before), and moved no arm.
-    assert _until(lambda: len(speaking) > 1)
+    assert until(lambda: len(speaking) > 1)
     assert speaking[1][0] == STOPPED["ko"] and speaking[1][1] < greeting_to
     time.sleep(0.5)
     assert "actuation" not in _kinds(executor.events)
-    _resume(voice, human, executor)
+    resume_by_voice(voice, human, executor)
     _check_pause_and_resume(plan, voice, executor)
     kinds = _kinds(executor.events)
     assert kinds.index("paused") < kinds.index("actuation")
@@ -186,7 +188,7 @@ def test_a_pause_with_a_reason_is_an_event_and_holds_the_arm_where_it_is() -> No
 
     executor.listeners.append(on_event)
     executor.start()
-    assert _until(lambda: executor.paused)
+    assert until(lambda: executor.paused)
     at_pause = executor.waypoint
     assert at_pause is not None and at_pause.node == first_motion[0]
     time.sleep(0.2)  # ten waypoints' time

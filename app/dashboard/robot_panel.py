@@ -68,8 +68,16 @@ class RobotPanel:
     # -- connecting -----------------------------------------------------------------
 
     def _moves_changed(self) -> None:
+        """The page chose who moves (a page's choice; the server's own settings of
+        the dropdown do not come here)."""
         if self.moves.value == MOVES[0]:
             self.disconnect()
+        elif self.link is None:
+            uri = str(self.master.value).strip()
+            self.status.content = (
+                f"Press **Connect** to reach the robot at {uri}; until then the motions "
+                "are **drawn only**."
+            )
 
     def _connect_clicked(self) -> None:
         self.connect()
