@@ -21,7 +21,7 @@ import pytest
 from app.execution.events import ExecutionEvent
 from app.execution.robot_link import farthest
 from app.robot.ros_env import RosMaster, free_port
-from app.sessions.store import DB_NAME, SessionStore
+from app.sessions.store import DB_NAME, SessionStore, StoreError
 from tests.robot_graph import (
     ROOT,
     FaultTopic,
@@ -73,7 +73,12 @@ def _moved(data: Path, count: int) -> Callable[[], bool]:
     def done() -> bool:
         if not (data / DB_NAME).exists():
             return False
-        with SessionStore(data, read_only=True) as store:
+        try:
+            store = SessionStore(data, read_only=True)
+        except StoreError:
+            # The run has created the file but not yet its tables.
+            return False
+        with store:
             sessions = store.list_sessions()
             events = store.events(sessions[0].id) if sessions else []
         return sum(e.kind == "actuation" for e in events) >= count
