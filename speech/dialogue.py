@@ -22,8 +22,11 @@ answer is awaited (`Ear.answer`), and is then judged:
   grammar of the commands (the answers and the language's distractor words
   absorb everything else); `on_command` is told. A "continue" in the robot's
   own voice window is ignored (the robot must never resume itself); a "stop"
-  is taken, since stopping is always safe. While the ear is `held` (the
-  execution is paused) no answer is taken and the no-speech time does not run.
+  is taken, since stopping is always safe, but only where the robot's voice is
+  cancelled: without the canceller the window holds the robot's own words (its
+  closing line, 테이블이 완성됐어요…, was once heard as 멈춰 and paused the
+  run). While the ear is `held` (the execution is paused) no answer is taken
+  and the no-speech time does not run.
 
 Measured on espeak-ng's voices (12 each: variants, speeds, pitches, half
 with noise). Korean (vosk): 멈춰 9/12, 잠깐 9/12, 잠깐만 6/12, 정지 7/12 taken
@@ -357,7 +360,9 @@ class Ear:
             return None
         heard = current.commands.finish()
         command = Commands.command_of(heard)
-        if command is None or (command == "continue" and current.own):
+        # In the robot's window only a stop is taken, and only when the robot's
+        # voice is cancelled: otherwise the window holds the robot's own words.
+        if command is None or (current.own and (command == "continue" or self.canceller is None)):
             return None
         return Hearing(current.start_s, end_s, heard.words, heard.confidence, command=command)
 

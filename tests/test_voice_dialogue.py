@@ -125,6 +125,36 @@ def test_a_stop_said_over_the_robots_voice_is_heard(
     assert waited.hearing is None and all(h.meaning is None for h in ear.heard)
 
 
+def test_without_the_canceller_no_command_is_taken_in_the_robots_window(
+    recognizers: dict[str, Recognizer], tmp_path: Path
+) -> None:
+    """The robot's own 멈춰 (and a human's said over it) is refused as its own voice
+    when its voice is not cancelled; a 멈춰 said after the window still stops."""
+    _, _, stop = SPOKEN["ko"]
+    room = SimulatedRoom(seed=6)
+    heard: list[Hearing] = []
+    ear = Ear(room, DialogueTimes(), Commands("ko"), lambda _, h: heard.append(h),
+              cancel_echo=False).start()  # fmt: skip
+    try:
+        robot = _robot_says(room, ear, f"테이블이 완성됐어요. {stop}", "ko", tmp_path)
+        human = SimulatedVoice("ko", seed=6, room=room)
+        human.say_at(stop, robot.start_s + 0.5 - human.pause_s)
+        while room.position_s < ear.robot_until_s + 0.5:
+            time.sleep(0.03)
+        assert heard == [], "a command taken in the robot's own voice"
+        own = [h for h in ear.heard if h.reason == "own voice"]
+        assert own and own[0].start_s < robot.speech_end_s
+        human.say_at(stop, room.position_s + 0.2)
+        said = human.spoken_at
+        assert said is not None
+        while room.position_s < said.end_s + 1.0 and not heard:
+            time.sleep(0.03)
+    finally:
+        ear.close()
+    assert [h.command for h in heard] == ["stop"], ear.heard
+    assert heard[0].start_s > ear.robot_until_s
+
+
 def _run(
     plan: Plan, voice: VoiceResponses, data: Path, *, narrate: bool = True
 ) -> list[ExecutionEvent]:
