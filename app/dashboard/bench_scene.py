@@ -14,7 +14,9 @@ import viser
 import yourdfpy
 from viser.extras import ViserUrdf
 
+from app.dashboard.label_layout import Point3, laid_out
 from app.dashboard.mesh_detail import DEFAULT_DETAIL, reduce_detail
+from app.dashboard.view_panel import CAMERAS
 from app.execution.world import Placement, WorldView
 from planner.feasibility.arms import ARMS, HOME, JOINT_SUFFIXES
 from planner.feasibility.robot import baxter_urdf, human_urdf
@@ -27,6 +29,7 @@ from planner.feasibility.scene import (
     region_extents,
 )
 from planner.scenario.model import Scenario
+from planner.scenario.sections import Part
 
 FLOOR_Z = -0.93
 REGION_COLOURS = {
@@ -43,26 +46,13 @@ HUMAN_X = 1.85  # the human stands past the far end of the bench, facing the rob
 # bench coordinates): a part the human holds is drawn in one, just in front.
 HUMAN_HANDS = ((HUMAN_X - 0.06, 0.21, -0.17), (HUMAN_X - 0.06, -0.21, -0.17))
 PREFIX = "/bench"
-LABEL_GAP = 0.07  # m between stacked labels
-LABEL_NEAR = 0.16  # m: labels closer than this on the bench would overlap
+LEADER = (150, 150, 150)  # the line from a lifted label down to its part
 
 
-Point3 = tuple[float, float, float]
-
-
-def stacked(anchors: dict[str, Point3]) -> dict[str, Point3]:
-    """Label positions where no two overlap, seen from above or from the side:
-    a label near one placed before it (closer than `LABEL_NEAR` along the
-    bench and `LABEL_GAP` across it) moves across the bench, towards the
-    "Bench" camera (-y), and up, by `LABEL_GAP` until it is clear. Pure."""
-    placed: dict[str, Point3] = {}
-    for pid in sorted(anchors, key=lambda p: (anchors[p][2], p)):
-        x, y, z = anchors[pid]
-        while any(abs(x - px) < LABEL_NEAR and abs(y - py) < LABEL_GAP
-                  for px, py, _ in placed.values()):  # fmt: skip
-            y, z = y - LABEL_GAP, z + LABEL_GAP / 2
-        placed[pid] = (x, y, z)
-    return placed
+def _first_label(part: Part) -> str:
+    """A part's label before the execution moves it: its id, marker and danger."""
+    marker = f" #{part.marker}" if part.marker is not None else ""
+    return f"{part.id}{marker}{' (dangerous)' if part.dangerous else ''}"
 
 
 def _yaw_quat(yaw: float) -> tuple[float, float, float, float]:
@@ -111,6 +101,8 @@ class BenchScene:
         self.scenario: Scenario | None = None
         self._part_handles: dict[str, viser.BoxHandle] = {}
         self._label_handles: dict[str, viser.LabelHandle] = {}
+        self._leaders: viser.LineSegmentsHandle | None = None
+        self._region_labels: list[tuple[Point3, str]] = []  # where, and what they say
         self._static: list[viser.SceneNodeHandle] = []
         self.robot: ViserUrdf | None = None
         self.drawn_arms: dict[str, list[float]] = {}  # each arm's joints as drawn now
@@ -144,6 +136,8 @@ class BenchScene:
         for handle in [*self._static, *self._part_handles.values(), *self._label_handles.values()]:
             handle.remove()
         self._static, self._part_handles, self._label_handles = [], {}, {}
+        self._region_labels = []
+        self._draw_leaders({}, {})
         self.scenario = scenario
         self.boxes = part_boxes(scenario)
         scene = self.server.scene
@@ -171,13 +165,13 @@ class BenchScene:
                 )
             )
             reach = "human reaches" if region.human_reach else "robot only"
+            # Staggered across the bench: side by side they would overlap.
+            where = ((lo + hi) / 2, -BENCH_HALF_WIDTH + 0.05 + 0.09 * (index % 2),
+                     BENCH_TOP_Z + 0.01)  # fmt: skip
+            self._region_labels.append((where, f"{region.id} ({reach})"))
             self._static.append(
                 scene.add_label(
-                    f"{PREFIX}/region_labels/{region.id}",
-                    f"{region.id} ({reach})",
-                    # Staggered across the bench: side by side they would overlap.
-                    position=((lo + hi) / 2, -BENCH_HALF_WIDTH + 0.05 + 0.09 * (index % 2),
-                              BENCH_TOP_Z + 0.01),
+                    f"{PREFIX}/region_labels/{region.id}", f"{region.id} ({reach})", position=where
                 )
             )
         for pid, box in self.boxes.items():
@@ -192,13 +186,12 @@ class BenchScene:
             )
         anchors = {pid: (box.x, box.y, BENCH_TOP_Z + box.size[2] + 0.03)
                    for pid, box in self.boxes.items()}  # fmt: skip
-        for pid, where in stacked(anchors).items():
-            part = scenario.part(pid)
-            marker = f" #{part.marker}" if part.marker is not None else ""
-            danger = " (dangerous)" if part.dangerous else ""
+        texts = {pid: _first_label(scenario.part(pid)) for pid in anchors}
+        for pid, where in anchors.items():
             self._label_handles[pid] = scene.add_label(
-                f"{PREFIX}/labels/{pid}", f"{pid}{marker}{danger}", position=where
+                f"{PREFIX}/labels/{pid}", texts[pid], position=where
             )
+        self._place_labels(anchors, texts)
 
     def show(self, world: WorldView) -> None:
         anchors: dict[str, Point3] = {}
@@ -217,9 +210,29 @@ class BenchScene:
             if pid in words:
                 label.text = words[pid]
                 anchors[pid] = (where[0], where[1], where[2] + 0.06)
-        for pid, position in stacked(anchors).items():
-            self._label_handles[pid].position = position
+        self._place_labels(anchors, words)
         self.show_arms(world.arms)
+
+    def _place_labels(self, anchors: dict[str, Point3], texts: dict[str, str]) -> None:
+        """Labels where none covers another on the "Bench" camera; one lifted above
+        its part hangs from a thin line down to it."""
+        placed = laid_out(CAMERAS["Bench"], anchors, texts, self._region_labels)
+        for pid, position in placed.items():
+            self._label_handles[pid].position = position
+        self._draw_leaders(anchors, placed)
+
+    def _draw_leaders(self, anchors: dict[str, Point3], placed: dict[str, Point3]) -> None:
+        lifted = [(anchors[p], placed[p]) for p in placed if placed[p][2] > anchors[p][2]]
+        if not lifted:
+            if self._leaders is not None:
+                self._leaders.remove()
+                self._leaders = None
+            return
+        # Added under the same name, the node replaces the last one on every page.
+        self._leaders = self.server.scene.add_line_segments(
+            f"{PREFIX}/label_leaders", np.array(lifted), colors=LEADER,
+            thickness=1.5, thickness_units="screen",
+        )  # fmt: skip
 
     def show_arms(self, arms: dict[str, list[float]]) -> None:
         if self.robot is None:
