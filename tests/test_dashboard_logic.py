@@ -222,3 +222,13 @@ def test_one_label_per_assembly() -> None:
     assert label_words(parts) == {
         "top": "top + foot1, leg1", "leg2": "leg2 (held by human)", "foot2": "foot2"
     }
+    # With the scenario: each loose part's marker code, and its danger, stay said.
+    from planner.scenario.loading import load_scenario
+    from tests.plan_fixtures import SCENARIOS
+
+    world = load_scenario(SCENARIOS / "real-world.toml")
+    nail = next(p for p in world.parts if p.dangerous)
+    words = label_words({"top": Placement(0.8, 0.0, 0.0),
+                         nail.id: Placement(0.5, 0.0, 0.2, holder="left")}, world)  # fmt: skip
+    assert words["top"] == "top #1"
+    assert words[nail.id] == f"{nail.id} #{nail.marker} (dangerous, held by left)"

@@ -29,7 +29,6 @@ from planner.feasibility.scene import (
     region_extents,
 )
 from planner.scenario.model import Scenario
-from planner.scenario.sections import Part
 
 FLOOR_Z = -0.93
 REGION_COLOURS = {
@@ -49,20 +48,18 @@ PREFIX = "/bench"
 LEADER = (150, 150, 150)  # the line from a lifted label down to its part
 
 
-def _first_label(part: Part) -> str:
-    """A part's label before the execution moves it: its id, marker and danger."""
-    marker = f" #{part.marker}" if part.marker is not None else ""
-    return f"{part.id}{marker}{' (dangerous)' if part.dangerous else ''}"
-
-
 def _yaw_quat(yaw: float) -> tuple[float, float, float, float]:
     return (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
 
 
-def label_words(parts: Mapping[str, Placement]) -> dict[str, str]:
+def label_words(
+    parts: Mapping[str, Placement], scenario: Scenario | None = None
+) -> dict[str, str]:
     """One label per assembly, on the part the others are attached to ("top +
-    leg1, foot1"), and one per loose part, saying who holds it: labels of parts
-    attached together would stand on top of each other."""
+    leg1, foot1"), and one per loose part, with its marker code and saying
+    whether it is dangerous and who holds it: labels of parts attached together
+    would stand on top of each other."""
+    known = {p.id: p for p in scenario.parts} if scenario is not None else {}
     def root(pid: str) -> str:
         seen = {pid}
         while (onto := parts[pid].attached_to) is not None and onto in parts and onto not in seen:
@@ -78,10 +75,12 @@ def label_words(parts: Mapping[str, Placement]) -> dict[str, str]:
     for pid, placement in parts.items():
         if placement.attached_to is not None:
             continue
-        text = pid + (f" + {', '.join(sorted(members[pid]))}" if pid in members else "")
-        if placement.holder is not None:
-            text += f" (held by {placement.holder})"
-        words[pid] = text
+        part = known.get(pid)
+        text = pid + (f" #{part.marker}" if part and part.marker is not None else "")
+        text += f" + {', '.join(sorted(members[pid]))}" if pid in members else ""
+        notes = ["dangerous"] if part and part.dangerous else []
+        notes += [f"held by {placement.holder}"] if placement.holder is not None else []
+        words[pid] = text + (f" ({', '.join(notes)})" if notes else "")
     return words
 
 
@@ -186,7 +185,7 @@ class BenchScene:
             )
         anchors = {pid: (box.x, box.y, BENCH_TOP_Z + box.size[2] + 0.03)
                    for pid, box in self.boxes.items()}  # fmt: skip
-        texts = {pid: _first_label(scenario.part(pid)) for pid in anchors}
+        texts = label_words({p: Placement(*anchors[p]) for p in anchors}, scenario)
         for pid, where in anchors.items():
             self._label_handles[pid] = scene.add_label(
                 f"{PREFIX}/labels/{pid}", texts[pid], position=where
@@ -196,7 +195,7 @@ class BenchScene:
     def show(self, world: WorldView) -> None:
         anchors: dict[str, Point3] = {}
         hands = iter(HUMAN_HANDS)
-        words = label_words(world.parts)
+        words = label_words(world.parts, self.scenario)
         for pid, placement in world.parts.items():
             handle = self._part_handles.get(pid)
             if handle is None:
