@@ -208,3 +208,32 @@ def test_a_pause_with_a_reason_is_an_event_and_holds_the_arm_where_it_is() -> No
     quiet.pause()
     quiet.resume()
     assert quiet.run() == "goal" and all(is_step(e) for e in quiet.events)
+
+
+def test_paused_by_voice_and_resumed_by_the_button_the_voice_answers_again(
+    recognizer: Recognizer, plan: Plan, tmp_path: Path
+) -> None:
+    """The operator's Resume (not "continue") ends the voice's pause too: the ear,
+    held while paused, takes the next questions' answers again."""
+    voice, human = live_dialogue(recognizer, tmp_path, seed=2)
+    assert voice.ear is not None
+    said: list[Span] = []
+
+    def on_line(line: Line) -> None:
+        if line.utterance is not None:
+            say_once(human, "멈춰", said, 0.5)  # over the greeting
+
+    voice.robot.listeners.insert(0, on_line)
+    executor = Executor(plan, voice.source, narrator=voice.robot)
+    executor.start()
+    assert until(lambda: executor.paused), _heard(voice)
+    assert voice.ear.held
+    executor.resume()  # the Resume button: no words, no event
+    assert not voice.ear.held
+    assert executor.wait(180) == "goal"
+    events = executor.events
+    assert [e.kind for e in events if e.kind in ("paused", "resumed")] == ["paused"]
+    questions = [e for e in events if is_step(e) and e.kind == "communication" and e.outcome]
+    assert questions and all(e.source == "voice" for e in questions), [
+        (e.node, e.source) for e in questions
+    ]

@@ -146,14 +146,22 @@ class Executor:
         was = self.gate.pause()
         if self.robot is not None:
             self.robot.cancel()
+        self._hold_source(True)
         if why is not None and not was:
             self.note("paused", why, "voice", evidence)
 
     def resume(self, why: str | None = None, evidence: Evidence | None = None) -> None:
         """Goes on; `why`, when given, is kept as a `resumed` event (as for `pause`)."""
         was = self.gate.resume()
+        self._hold_source(False)
         if why is not None and was:
             self.note("resumed", why, "voice", evidence)
+
+    def _hold_source(self, held: bool) -> None:
+        # A live voice takes no answer while paused, whoever paused or resumed.
+        hold = getattr(self.source, "hold", None)
+        if callable(hold):
+            hold(held)
 
     def step(self) -> None:
         """Single-step mode: pauses, and lets exactly one more node run."""

@@ -185,6 +185,12 @@ class VoiceAnswers:
         if isinstance(self.voice, DialogueVoice):
             self.voice.ear.close()
 
+    def hold(self, held: bool) -> None:
+        """The execution paused (True) or went on: a live ear takes no answer while
+        paused, and must take them again however the execution resumed."""
+        if isinstance(self.voice, DialogueVoice):
+            self.voice.ear.hold(held)
+
     def _attempted(self, attempt: Attempt) -> None:
         """Each try: told on, and a refusal kept as the dialogue's turn."""
         if self._told is not None:
