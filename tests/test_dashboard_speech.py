@@ -16,6 +16,7 @@ pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
+from app.execution.walker import Executor  # noqa: E402
 from tests.plan_fixtures import KOREAN_DEFAULT  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     execute_clicked,
@@ -69,6 +70,23 @@ def page_audio(page: Page) -> bytes | None:
     return base64.b64decode(match.group(2)) if match else None
 
 
+def answer_by(page: Page, dashboard: Dashboard, mode: str) -> None:
+    """Chooses `mode` in the page's "Answers by" dropdown."""
+    page.get_by_text("Answers by", exact=True).first.locator(
+        "xpath=ancestor::*[.//input][1]"
+    ).locator("input").first.click()
+    page.get_by_role("option", name=mode, exact=True).click()
+    wait_for(lambda: dashboard.speech.mode.value == mode, 10)
+
+
+def planned_and_executing(page: Page, dashboard: Dashboard) -> Executor:
+    """Plans with a click, then starts executing at full speed with one."""
+    plan_clicked(page, dashboard, 120)
+    dashboard.execution.speed.value = 0.0
+    wait_for(lambda: not dashboard.execution.start_button.disabled)
+    return execute_clicked(page, dashboard)
+
+
 def test_executing_sends_spoken_lines_to_the_page_and_the_voice_answers(
     page: Page, dashboard: Dashboard
 ) -> None:
@@ -76,32 +94,15 @@ def test_executing_sends_spoken_lines_to_the_page_and_the_voice_answers(
     # A fixed voice: a random one refuses twice now and then, and the question then
     # falls back to clicks this test does not give.
     speech.seed = 3
-    # Choose the simulated voice in the page's dropdown.
-    page.get_by_text("Answers by", exact=True).first.locator(
-        "xpath=ancestor::*[.//input][1]"
-    ).locator("input").first.click()
-    page.get_by_role("option", name="simulated voice", exact=True).click()
-    wait_for(lambda: speech.mode.value == "simulated voice", 10)
-    plan_clicked(page, dashboard, 120)
-    dashboard.execution.speed.value = 0.0
-    wait_for(lambda: not dashboard.execution.start_button.disabled)
-    executor = execute_clicked(page, dashboard)
-    assert dashboard.plan is not None
-    plan = dashboard.plan
+    answer_by(page, dashboard, "simulated voice")
+    executor = planned_and_executing(page, dashboard)
     received: list[bytes] = []
     deadline = time.monotonic() + 120
     while not executor.done and time.monotonic() < deadline:
         audio = page_audio(page)
         if audio is not None and (not received or received[-1] != audio):
             received.append(audio)
-        clicks = dashboard.execution.clicks
-        offer = clicks.pending() if clicks is not None else None
-        # Only sensing is left to clicks; the questions wait for the voice.
-        if offer is not None and plan.nodes[offer.node_id].kind == "sensing":
-            try:
-                page.get_by_role("button", name=offer.words[-1], exact=True).click(timeout=3000)
-            except Exception:
-                pass  # the buttons were redrawn meanwhile: look again
+        _answer_sensing(page, dashboard)  # the questions wait for the voice
         time.sleep(0.05)
     assert executor.result == "goal", executor.events
     asked = [e for e in executor.events if e.kind == "communication" and e.outcome]
@@ -167,3 +168,56 @@ def test_mute_stops_the_audio_and_a_missing_model_keeps_the_clicks(
     source, _ = speech.responses(plan, clicks)
     assert source is clicks
     assert "No voice answers" in speech.heard.content and "\n" not in speech.heard.content
+
+
+def _answer_sensing(page: Page, dashboard: Dashboard) -> None:
+    """Clicks the pending sensing node's first choice (the voice answers only questions)."""
+    clicks, plan = dashboard.execution.clicks, dashboard.plan
+    offer = clicks.pending() if clicks is not None else None
+    if offer is not None and plan is not None and plan.nodes[offer.node_id].kind == "sensing":
+        try:
+            page.get_by_role("button", name=offer.words[-1], exact=True).click(timeout=3000)
+        except Exception:
+            pass  # the buttons were redrawn meanwhile: look again
+
+
+def _say_until(page: Page, dashboard: Dashboard, button: str, paused: bool) -> None:
+    """Clicks the human's command until the execution is `paused` (or not); a person
+    repeats a command the robot did not obey (three times at most)."""
+    executor = dashboard.execution.executor
+    assert executor is not None
+    for _ in range(3):
+        page.get_by_role("button", name=button, exact=True).click()
+        end = time.monotonic() + 6
+        while executor.paused != paused and time.monotonic() < end:
+            time.sleep(0.05)
+        if executor.paused == paused:
+            return
+    raise AssertionError(f"{button}: not obeyed; heard {dashboard.speech.heard.content}")
+
+
+def test_in_the_simulated_room_the_humans_stop_and_continue_pause_and_resume(
+    page: Page, dashboard: Dashboard
+) -> None:
+    dashboard.speech.seed = 3
+    answer_by(page, dashboard, "simulated room")
+    stop = page.get_by_role("button", name="Human says stop", exact=True)
+    stop.wait_for()
+    assert stop.is_disabled()  # nothing to stop before an execution
+    executor = planned_and_executing(page, dashboard)
+    wait_for(lambda: not stop.is_disabled(), 10)
+    wait_for(lambda: any(e.kind == "actuation" for e in executor.events), 60)
+    _say_until(page, dashboard, "Human says stop", paused=True)
+    page.get_by_text("Paused by voice", exact=False).first.wait_for()
+    shot(page, "speech-room-paused")
+    _say_until(page, dashboard, "Human says continue", paused=False)
+    deadline = time.monotonic() + 180
+    while not executor.done and time.monotonic() < deadline:
+        _answer_sensing(page, dashboard)
+        time.sleep(0.05)
+    assert executor.result == "goal", executor.events
+    turns = [(e.kind, e.source) for e in executor.events if e.kind in ("paused", "resumed")]
+    assert turns[:2] == [("paused", "voice"), ("resumed", "voice")], turns
+    asked = [e for e in executor.events if e.kind == "communication" and e.outcome]
+    assert asked and all(e.source == "voice" for e in asked), [e.source for e in asked]
+    wait_for(lambda: stop.is_disabled(), 10)  # the execution ended

@@ -7,9 +7,13 @@ autoplay>` element with a data: URI, which viser's HTML element plays), or,
 with `speak="local"`, played on the server's speakers.
 
 "Answers by" chooses who answers the questions: clicks, the simulated voice
-(a simulated human says its answer, the real recogniser hears it) or the
-microphone. The click buttons stay visible while the voice listens, and a
-click that comes first wins; a question refused twice waits for a click.
+(a simulated human says its answer, the real recogniser hears it), the
+simulated room (the same human in a live room where the ear listens all the
+time: the robot's own voice comes back from its speakers and is refused, and
+**Human says stop** / **Human says continue** have the human say the command
+into the room, over whatever the robot is saying) or the microphone. The
+click buttons stay visible while the voice listens, and a click that comes
+first wins; a question refused twice waits for a click.
 Without a speech model for the plan's language the panel says so in one line
 and the questions stay with the clicks.
 
@@ -36,13 +40,20 @@ from app.sources.outcomes import ClickSource
 from app.sources.voice import Attempt
 from planner.plan.model import Plan
 from speech.devices import NoAudioDevice, play_local
+from speech.dialogue import Command
 from speech.models import NoSpeechModel
 from speech.recognition import Recognizer
-from speech.sources import MicrophoneSource
+from speech.sources import MicrophoneSource, SimulatedVoice
 from speech.synthesis import Engine
 
 Speak = Literal["page", "local"]
-MODES = ("clicks", "simulated voice", "microphone")
+MODES = ("clicks", "simulated voice", "simulated room", "microphone")
+# What the simulated human says for stop and continue: of each language's
+# command words, the ones its recogniser took best (speech/dialogue.py).
+SAID_COMMANDS: dict[str, dict[Command, str]] = {
+    "en-us": {"stop": "wait", "continue": "resume"},
+    "ko": {"stop": "멈춰", "continue": "계속해"},
+}
 PANEL_ORDER = 10_000.0
 LEVEL_EVERY_S = 0.1  # the input-level meter's updates (blocks arrive every 30 ms)
 LINES_KEPT = 200  # the robot's latest lines kept here (a run says ~10-40)
@@ -80,13 +91,38 @@ class SpeechPanel:
             self.listening = gui.add_markdown("Not listening.")
             self.level: Any = gui.add_progress_bar(0.0)
             self.heard = gui.add_markdown("Nothing heard yet.")
+            self.says = {
+                command: gui.add_button(f"Human says {command}", disabled=True, visible=False)
+                for command in ("stop", "continue")
+            }
             self.audio = gui.add_html("")
-        events.subscribe(ExecutionFinished, lambda _: self._listening(False))
+        self.says["stop"].on_click(lambda _: self._say("stop"))
+        self.says["continue"].on_click(lambda _: self._say("continue"))
+        events.subscribe(ExecutionFinished, lambda _: self._finished())
         self.mode.on_update(lambda _: self._prepare())
+
+    def _finished(self) -> None:
+        self._listening(False)
+        for button in self.says.values():
+            button.disabled = True
+
+    def _say(self, command: Command) -> None:
+        """The simulated human says `command` into the live room, now."""
+        voice = self.voice
+        if voice is None or voice.room is None:
+            return
+        code = voice.robot.language.code
+        words = SAID_COMMANDS.get(code, SAID_COMMANDS["en-us"])[command]
+        human = SimulatedVoice(voice.robot.language, room=voice.room)
+        human.say_at(words, voice.room.now_s() + 0.05)
+        self.heard.content = f"The simulated human says '{words}'."
 
     def _prepare(self) -> None:
         """Loads the speech model as soon as a voice is chosen (it takes seconds), so
         the first question does not wait for it; says at once if there is none."""
+        live = str(self.mode.value) == "simulated room"
+        for button in self.says.values():
+            button.visible = live
         plan = self.stage.current_plan()
         if str(self.mode.value) == "clicks" or plan is None:
             return
@@ -112,7 +148,7 @@ class SpeechPanel:
         if mode != "clicks":
             try:
                 self.voice = voice_responses(
-                    "sim" if mode == "simulated voice" else "mic",
+                    "mic" if mode == "microphone" else "sim",
                     code,
                     clicks,
                     seed=random.randrange(2**31) if self.seed is None else self.seed,
@@ -121,10 +157,13 @@ class SpeechPanel:
                     on_line=self._spoken,
                     on_attempt=self._heard,
                     on_listening=self._listening,
+                    live=mode == "simulated room",
                 )
             except (NoSpeechModel, NoAudioDevice) as error:
                 self.heard.content = f"**No voice answers:** {error}. Answer by clicks."
         if self.voice is not None:
+            for button in self.says.values():
+                button.disabled = self.voice.room is None
             audio = self.voice.voice.audio
             if isinstance(audio, MicrophoneSource):
                 audio.on_level = self._level  # the meter moves while a person speaks
