@@ -66,7 +66,23 @@ def plan_in_page(page: Page, dashboard: Dashboard, scenario: str) -> None:
     if dashboard.loaded is None or dashboard.loaded.source != scenario:
         dashboard.open_named(scenario)
     plan_clicked(page, dashboard, 300)
-    page.locator("svg.tandem-tree").wait_for()
+    settled(page, dashboard)
+
+
+def settled(page: Page, dashboard: Dashboard, quiet_s: float = 0.5) -> dict[str, float]:
+    """Waits until the page shows the server's newest tree picture and no other has
+    been drawn for `quiet_s` (the page reports its size once a picture is shown,
+    which can redraw it: a picture measured or scrolled then may be replaced under
+    the pointer); the picture's box on the page."""
+    svg = page.locator("svg.tandem-tree")
+    for _ in range(20):
+        draws = dashboard.tree.draws
+        wait_for(lambda: svg.get_attribute("data-draw") == str(dashboard.tree.draws), 20)
+        page.wait_for_timeout(quiet_s * 1000)
+        box = svg.bounding_box()
+        if dashboard.tree.draws == draws and box is not None:
+            return box
+    raise AssertionError("the tree picture kept being redrawn")
 
 
 def zoom(page: Page, how: str) -> None:
@@ -99,8 +115,7 @@ def test_wheel_zoom_reaches_the_server_and_a_badge_opens_its_branch(
     plan_in_page(page, dashboard, "paper/U10.toml")
     tree = dashboard.tree
     before = tree.view
-    picture = page.locator("svg.tandem-tree").bounding_box()
-    assert picture is not None
+    picture = settled(page, dashboard)
     page.mouse.move(picture["x"] + picture["width"] / 2, picture["y"] + picture["height"] / 2)
     page.mouse.wheel(0, 400)  # out: the view widens about the pointer
     wait_for(lambda: tree.view[2] > before[2] * 1.3, 20)

@@ -98,6 +98,9 @@ class TreeView:
         self.marks = TreeMarks()
         self.view: tuple[float, float, float, float] = (0.0, 0.0, VIEW_W, VIEW_H)
         self.size = (VIEW_W, VIEW_H)  # the picture's element on the page, in pixels
+        # Pictures sent so far; each carries its number (data-draw), so a page (or a
+        # test) can tell the newest picture from one about to be replaced.
+        self.draws = 0
         self._found: list[str] = []
         # Planning, execution and clicks redraw from different threads.
         self._lock = threading.RLock()
@@ -178,7 +181,9 @@ class TreeView:
             if self.plan is None or self.current is None:
                 return
             svg = draw(self.plan, self.current, self.marks, self.view)
-            svg = svg.replace("<svg ", f"<svg {_SVG_STYLE} {_HANDLERS} ", 1)
+            self.draws += 1
+            stamp = f'data-draw="{self.draws}"'
+            svg = svg.replace("<svg ", f"<svg {stamp} {_SVG_STYLE} {_HANDLERS} ", 1)
             script = f'<img src="data:," style="display:none" onerror="{_SCRIPT}">'
             self.picture.content = _STYLE + script + svg
 
