@@ -101,6 +101,7 @@ class BenchScene:
         self._part_handles: dict[str, viser.BoxHandle] = {}
         self._label_handles: dict[str, viser.LabelHandle] = {}
         self._leaders: viser.LineSegmentsHandle | None = None
+        self._lifted: list[tuple[Point3, Point3]] = []  # the leaders drawn now
         self._region_labels: list[tuple[Point3, str]] = []  # where, and what they say
         self._static: list[viser.SceneNodeHandle] = []
         self.robot: ViserUrdf | None = None
@@ -222,6 +223,9 @@ class BenchScene:
 
     def _draw_leaders(self, anchors: dict[str, Point3], placed: dict[str, Point3]) -> None:
         lifted = [(anchors[p], placed[p]) for p in placed if placed[p][2] > anchors[p][2]]
+        if lifted == self._lifted and (self._leaders is not None or not lifted):
+            return  # most steps move no labelled part: nothing to send
+        self._lifted = lifted
         if not lifted:
             if self._leaders is not None:
                 self._leaders.remove()

@@ -16,6 +16,7 @@ import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 Point3 = tuple[float, float, float]
 Pose = tuple[Point3, Point3]  # a camera's position, and the point it looks at
@@ -29,33 +30,44 @@ LIFT_M = 0.03  # a label meeting another goes up by this much at a time
 MAX_LIFTS = 30
 
 
-def _image_point(camera: Pose, point: Point3) -> tuple[float, float] | None:
-    """Where `point` lands in the camera's picture, in pixels from its centre
-    (x right, y up), at `PAGE_HEIGHT_PX`; None behind the camera."""
-    eye, target = np.array(camera[0]), np.array(camera[1])
-    forward = (target - eye) / np.linalg.norm(target - eye)
-    right = np.cross(forward, (0.0, 0.0, 1.0))
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    offset = np.array(point) - eye
-    depth = float(offset @ forward)
-    if depth <= 1e-6:
-        return None
-    scale = PAGE_HEIGHT_PX / (2 * math.tan(FOV_Y / 2)) / depth
-    return float(offset @ right) * scale, float(offset @ up) * scale
+Box = tuple[float, float, float, float]  # left, bottom, right, top, in pixels
 
 
-def label_box(camera: Pose, anchor: Point3, text: str) -> tuple[float, float, float, float]:
-    """The label's box on the picture (left, bottom, right, top), in pixels; an
-    empty box for a label behind the camera."""
-    at = _image_point(camera, anchor)
-    if at is None:
-        return (0.0, 0.0, 0.0, 0.0)
-    x, y = at
-    return (x, y - LINE_PX, x + CHAR_PX * max(len(text), 1), y)
+def _unit(v: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    return v / float(np.linalg.norm(v))
 
 
-def _meets(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+class _Picture:
+    """A camera's picture: its axes worked out once, then points projected with
+    plain arithmetic (a layout projects hundreds of points per step)."""
+
+    def __init__(self, camera: Pose) -> None:
+        eye, target = np.array(camera[0], float), np.array(camera[1], float)
+        forward = _unit(target - eye)
+        right = _unit(np.cross(forward, (0.0, 0.0, 1.0)))
+        up = np.cross(right, forward)
+        self.eye = tuple(float(c) for c in eye)
+        self.axes = [tuple(float(c) for c in axis) for axis in (right, up, forward)]
+        self.focal = PAGE_HEIGHT_PX / (2 * math.tan(FOV_Y / 2))
+
+    def box(self, anchor: Point3, text: str) -> Box:
+        """The label's box on the picture (x right, y up, from its centre, at
+        `PAGE_HEIGHT_PX`); an empty box for a label behind the camera."""
+        offset = [a - e for a, e in zip(anchor, self.eye, strict=True)]
+        across, up, depth = (sum(o * c for o, c in zip(offset, axis, strict=True))
+                             for axis in self.axes)  # fmt: skip
+        if depth <= 1e-6:
+            return (0.0, 0.0, 0.0, 0.0)
+        x, y = across * self.focal / depth, up * self.focal / depth
+        return (x, y - LINE_PX, x + CHAR_PX * max(len(text), 1), y)
+
+
+def label_box(camera: Pose, anchor: Point3, text: str) -> Box:
+    """The label's box on `camera`'s picture (left, bottom, right, top), in pixels."""
+    return _Picture(camera).box(anchor, text)
+
+
+def _meets(a: Box, b: Box) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
@@ -68,17 +80,18 @@ def laid_out(
     """Label positions, lowest anchors first, where no label's box meets one
     placed before it, nor a `fixed` label (where, text), on `camera`'s picture
     (up to `MAX_LIFTS` lifts each)."""
+    picture = _Picture(camera)
     placed: dict[str, Point3] = {}
-    boxes = [label_box(camera, where, text) for where, text in fixed]
+    boxes = [picture.box(where, text) for where, text in fixed]
     for pid in sorted(anchors, key=lambda p: (anchors[p][2], p)):
         x, y, z = anchors[pid]
         text = texts.get(pid, pid)
-        box = label_box(camera, (x, y, z), text)
+        box = picture.box((x, y, z), text)
         for _ in range(MAX_LIFTS):
             if not any(_meets(box, other) for other in boxes):
                 break
             z += LIFT_M
-            box = label_box(camera, (x, y, z), text)
+            box = picture.box((x, y, z), text)
         placed[pid] = (x, y, z)
         boxes.append(box)
     return placed

@@ -47,7 +47,8 @@ from speech.sources import MicrophoneSource, SimulatedVoice
 from speech.synthesis import Engine
 
 Speak = Literal["page", "local"]
-MODES = ("clicks", "simulated voice", "simulated room", "microphone")
+ROOM = "simulated room"  # the live dialogue, where the human's commands are heard
+MODES = ("clicks", "simulated voice", ROOM, "microphone")
 # What the simulated human says for stop and continue: of each language's
 # command words, the ones its recogniser took best (speech/dialogue.py).
 SAID_COMMANDS: dict[str, dict[Command, str]] = {
@@ -120,9 +121,8 @@ class SpeechPanel:
     def _prepare(self) -> None:
         """Loads the speech model as soon as a voice is chosen (it takes seconds), so
         the first question does not wait for it; says at once if there is none."""
-        live = str(self.mode.value) == "simulated room"
         for button in self.says.values():
-            button.visible = live
+            button.visible = str(self.mode.value) == ROOM
         plan = self.stage.current_plan()
         if str(self.mode.value) == "clicks" or plan is None:
             return
@@ -157,7 +157,7 @@ class SpeechPanel:
                     on_line=self._spoken,
                     on_attempt=self._heard,
                     on_listening=self._listening,
-                    live=mode == "simulated room",
+                    live=mode == ROOM,
                 )
             except (NoSpeechModel, NoAudioDevice) as error:
                 self.heard.content = f"**No voice answers:** {error}. Answer by clicks."

@@ -2,7 +2,8 @@
 
 `StopListener` is the `speech.dialogue.Ear`'s command listener. On "stop" it
 pauses the execution at once (an arm motion under way stops at its next
-waypoint), holds the ear (no answer is taken while paused), silences the robot
+waypoint; the executor holds the ear, so no answer is taken while paused, and
+lets it go on however the execution resumes), silences the robot
 (`on_stop`, the speakers) and has the robot say that it stopped; on "continue"
 it resumes and says it goes on. The pause and the resume are kept as events
 (`paused`, `resumed`) with what was heard. The ear calls it from its own
@@ -58,12 +59,10 @@ class StopListener:
         if command == "stop":
             controls.pause(f"heard '{words}': the robot stops", evidence)
             self.pauses.append(Pause(hearing.words, hearing.end_s, self.ear.stream.position_s))
-            self.ear.hold(True)
             if self.on_stop is not None:
                 self.on_stop()
             self._say(STOPPED)
         else:
-            self.ear.hold(False)
             controls.resume(f"heard '{words}': the robot goes on", evidence)
             self._say(GOING_ON)
 
