@@ -43,3 +43,24 @@ def test_a_regions_label_stays_and_a_parts_label_on_it_goes_up() -> None:
 def test_labels_far_apart_stay_where_their_parts_are() -> None:
     anchors = {"leg1": (0.4, 0.2, 0.05), "leg2": (1.3, -0.2, 0.05)}
     assert laid_out(BENCH, anchors, {}) == anchors
+
+
+def test_the_21_labels_of_u10_are_all_clear() -> None:
+    """The paper's U10 bench as the dashboard first draws it: long labels (marker
+    codes, "dangerous") in a crowd; none may cover another."""
+    from app.dashboard.bench_scene import label_words
+    from app.execution.world import Placement
+    from planner.feasibility.scene import BENCH_TOP_Z, part_boxes
+    from planner.scenario.loading import load_scenario
+    from tests.plan_fixtures import SCENARIOS
+
+    scenario = load_scenario(SCENARIOS / "paper" / "U10.toml")
+    anchors = {pid: (box.x, box.y, BENCH_TOP_Z + box.size[2] + 0.03)
+               for pid, box in part_boxes(scenario).items()}  # fmt: skip
+    texts = label_words({p: Placement(*anchors[p]) for p in anchors}, scenario)
+    assert len(anchors) == 21 and any("dangerous" in t for t in texts.values())
+    placed = laid_out(BENCH, anchors, texts)
+    boxes = [label_box(BENCH, placed[p], texts[p]) for p in anchors]
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            assert not _meets(a, b), (a, b)

@@ -27,7 +27,8 @@ PAGE_HEIGHT_PX = 800.0
 CHAR_PX = 7.0
 LINE_PX = 17.0
 LIFT_M = 0.03  # a label meeting another goes up by this much at a time
-MAX_LIFTS = 30
+# Up to 1.8 m: U10's 21 labels, with marker codes and "dangerous", need 1.2 m.
+MAX_LIFTS = 60
 
 
 Box = tuple[float, float, float, float]  # left, bottom, right, top, in pixels
