@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from app.execution.events import ExecutionEvent, Outcome, describe
+from app.execution.events import ExecutionEvent, Outcome, describe, is_step
 from app.execution.walker import Executor
 from app.sessions.store import SessionStore
 from app.sources.outcomes import (
@@ -44,7 +44,7 @@ def walk(doc: Plan, source: Any, **kw: Any) -> Executor:
 
 
 def path_of(executor: Executor) -> list[tuple[str, str | None]]:
-    return [(e.node, e.outcome) for e in executor.events]
+    return [(e.node, e.outcome) for e in executor.events if is_step(e)]
 
 
 class Counter:
@@ -100,7 +100,9 @@ def test_the_same_seed_takes_the_same_branch(plan: Plan) -> None:
 def test_expected_outcomes_follow_the_first_branch(plan: Plan) -> None:
     executor = walk(plan, ExpectedSource())
     assert executor.result == "goal"
-    steps = [(str(e.action), e.outcome) for e in executor.events if e.kind != "goal"]
+    steps = [
+        (str(e.action), e.outcome) for e in executor.events if e.kind != "goal" and is_step(e)
+    ]
     assert steps == plan.first_branch()
     assert {e.source for e in executor.events if e.outcome is not None} == {"expected"}
 
@@ -110,6 +112,9 @@ def test_events_carry_motions_and_sentences(plan: Plan) -> None:
     assert [e.seq for e in executor.events] == list(range(len(executor.events)))
     for event in executor.events:
         node = plan.nodes[event.node]
+        if event.kind == "human":  # the simulated human's action a request started
+            assert event.source == "simulated" and node.kind == "communication"
+            continue
         assert event.kind == node.kind and event.action == node.action
         if event.kind == "actuation":
             assert event.motion is not None and event.motion == node.motion

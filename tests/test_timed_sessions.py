@@ -20,6 +20,7 @@ from app.execution.timing import (
     CAMERA_SETTLE_S,
     SPEECH_WORDS_PER_S,
     SimulatedTimeline,
+    WallTimeline,
     joint_velocity_limits,
     motion_seconds,
     watches_human,
@@ -155,11 +156,12 @@ def test_the_human_section_sets_the_humans_times() -> None:
 def test_the_wall_clock_times_real_runs_and_the_store_keeps_the_times(
     plan: Plan, tmp_path: Path
 ) -> None:
-    wall = Executor(plan, RandomSource(5))
+    wall = Executor(plan, RandomSource(5), timeline=WallTimeline())
     assert wall.run() == "goal"
     assert all(e.start is not None and e.end is not None for e in wall.events)
     assert all(e.start <= e.end == e.time for e in wall.events)  # type: ignore[operator]
-    assert not [e for e in wall.events if e.kind == HUMAN]  # a real human is not timed
+    # A seeded choice is no person: nothing reports or observes a human's action.
+    assert not [e for e in wall.events if e.kind == HUMAN]
     with SessionStore(tmp_path) as store:
         session = store.start(plan)
         timeline = SimulatedTimeline(5, origin=1_000.0)

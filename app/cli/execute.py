@@ -18,7 +18,7 @@ from app.cli.voice_args import voice_from_args
 from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, Result
 from app.execution.repair import Repairer
 from app.execution.retargeting import retargeter_for
-from app.execution.timing import SimulatedTimeline
+from app.execution.timing import SimulatedTimeline, Timeline, WallTimeline
 from app.execution.walker import Executor, Listener, Narrator
 from app.sessions.store import SessionStore
 from app.sources.outcomes import (
@@ -218,16 +218,17 @@ def _answers(
     return _Answers(source, listeners=list(camera.listeners), close=camera.close)
 
 
-def _timeline(
-    args: argparse.Namespace, seed: int | None, scenario: Scenario | None
-) -> SimulatedTimeline | None:
-    """Headless runs answered without a live camera or voice, at no step delay, run
-    on a simulated clock (fast, the same for a seed); the others (and a robot's) on the
-    wall's."""
+def _timeline(args: argparse.Namespace, seed: int | None, scenario: Scenario | None) -> Timeline:
+    """Runs with a device or a person (a live camera, a microphone, a person at the
+    console, a robot) or a step delay keep the wall clock, on which every step takes
+    its real time; the others, answered by simulators, a script or answers piped in,
+    run on a simulated clock (fast, the same for a seed)."""
     spec = str(args.responses)
-    live = spec.startswith("voice:") or (spec.startswith("camera:") and spec != "camera:sim")
+    person = spec == "click" and sys.stdin.isatty()
+    camera = spec.startswith("camera:") and spec != "camera:sim"
+    live = person or camera or spec == "voice:mic"
     if live or args.step_delay > 0 or args.robot != "drawing":
-        return None
+        return WallTimeline()
     return SimulatedTimeline(seed or 0, scenario.human if scenario is not None else None)
 
 
@@ -246,8 +247,9 @@ def run(args: argparse.Namespace) -> int:
     note = args.note
     if seeded:
         note = f"seed {seed}" + (f"; {note}" if note else "")
+    timeline = _timeline(args, seed, scenario)
     with SessionStore(args.data_dir) as store:
-        session_id = store.start(plan, note=note)
+        session_id = store.start(plan, note=note, clock=timeline.clock)
         print(f"session {session_id}", flush=True)
         # A surprise (a scripted `!` line) plans again from what was observed.
         repairing = Repairer(scenario, store.add_plan).repair if scenario is not None else None
@@ -260,11 +262,13 @@ def run(args: argparse.Namespace) -> int:
             repairing=repairing,
             # The slot the human used moves later motions: the motion planner re-targets them.
             retarget=retarget,
-            timeline=_timeline(args, seed, scenario),
+            timeline=timeline,
             robot=robot,
         )
         result = _run_until_stopped(executor)
-        store.finish(session_id, result)
+        # A simulated session ends with its last event, not when the program did.
+        ended = max((e.end or 0.0 for e in executor.events), default=None)
+        store.finish(session_id, result, ended if timeline.clock == "simulated" else None)
     answers.close()
     if robot is not None:
         robot.link.close()

@@ -232,7 +232,7 @@ def _run_job(item: tuple[Job, str]) -> JobDone:
     note = f"seed {job.seed}; study {job.study}: {job.condition.name} #{job.participant}"
     with SessionStore(data_dir) as store:
         ensure_table(store.db)
-        session_id = store.start(plan, note=note)
+        session_id = store.start(plan, note=note, clock="simulated")
         tag(store.db, session_id, job.study, job.condition.name, job.participant)
         executor = Executor(
             plan,

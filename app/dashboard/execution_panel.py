@@ -33,6 +33,7 @@ from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, is_step
 from app.execution.repair import Repairer
 from app.execution.retargeting import retargeter_for
 from app.execution.robot_drive import RobotDriver, ToStart
+from app.execution.timing import WallTimeline
 from app.execution.walker import Executor, Listener, Narrator
 from app.sessions.database import StoreError
 from app.sessions.store import SessionStore
@@ -43,7 +44,6 @@ from planner.vocabulary import SenseLengthOf, SenseShapeOf
 # Who answers and who speaks in an execution of a plan, given the clicks to fall
 # back on (the speech panel's `responses`); without one the clicks answer, silently.
 Responses = Callable[[Plan, ClickSource], tuple[OutcomeSource, Narrator | None]]
-
 
 
 class RobotChoice(Protocol):
@@ -179,7 +179,7 @@ class ExecutionPanel:
             note = f"dashboard, camera {self.camera.name}"
         try:
             # Refuse rather than run unrecorded: the session row is written first.
-            session_id = self.store.start(plan, note=note)
+            session_id = self.store.start(plan, note=note, clock="wall")
         except StoreError as err:
             self.refuse_executions(str(err))
             refuse(client, str(err))
@@ -200,6 +200,10 @@ class ExecutionPanel:
             repairing=Repairer(scenario, self.store.add_plan).repair if scenario else None,
             retarget=retarget,
             robot=self.robot.driver(to_start) if self.robot is not None else None,
+            # A person watches and answers: every step takes its real time, a drawn
+            # motion as long as its animation plays.
+            timeline=WallTimeline(),
+            player=self._play_motion,
         )
         clicks.slots = self.executor  # a humanAttachingWhere offers every free slot
         for button in (self.pause_button, self.step_button, self.abort_button):
@@ -260,11 +264,11 @@ class ExecutionPanel:
             )
 
     def _add_line(self, line: str) -> None:
-        self._log = [*self._log[-(LOG_LINES - 1):], line]  # windowed: the store has all
+        self._log = [*self._log[-(LOG_LINES - 1) :], line]  # windowed: the store has all
         self.log.content = "\n\n".join(self._log)
 
     def _on_event(self, event: ExecutionEvent) -> None:
-        # Runs in the executor's thread: a motion takes as long as it is played.
+        # Runs in the executor's thread, once the step is done (a motion played).
         if not is_step(event):  # a turn of the dialogue: the log, and a voice pause
             self._add_line(sentence(event))
             if event.kind in ("paused", "resumed"):
@@ -282,14 +286,19 @@ class ExecutionPanel:
             self.stage.show_plan(event.plan)  # the execution goes on with the new plan
         self._add_line(sentence(event))
         robot_moved = event.evidence is not None and event.evidence.robot is not None
-        if event.motion and not robot_moved:  # a robot's arm was drawn as it moved
-            self._play(event.motion, float(self.speed.value))
+        if event.motion and not robot_moved:  # the drawn arm has played its motion
             self.stage.show_world(event.node)
 
     def _kinds(self) -> list[str]:
         plan = self.stage.current_plan()
         nodes = plan.nodes if plan is not None else {}
         return [nodes[s.node].kind if s.node in nodes else "open" for s in self._steps]
+
+    def _play_motion(self, node_id: str, motion: Motion) -> None:
+        # The executor's player: runs before the motion's event is recorded, so the
+        # stored start and end are the animation's.
+        self.stage.go_to(node_id, show_world=False, path=tuple(self._steps))
+        self._play(motion, float(self.speed.value))
 
     def _play(self, motion: Motion, seconds: float) -> None:
         path = motion.path

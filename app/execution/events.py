@@ -41,8 +41,8 @@ DIALOGUE_KINDS: tuple[DialogueKind, ...] = get_args(DialogueKind)
 # What an event is: the kind of the plan node run, or one of the execution's own.
 # `repair`: the execution changed plans after a surprise (its evidence says which);
 # `interrupted`: the walk stopped at this node for the reason in its text (the
-# program stopping, not a step of the plan); `human`: the simulated human's task
-# action started by the node (a request), timed in a simulated run; `robot-fault`:
+# program stopping, not a step of the plan); `human`: the human's task
+# action (or speech), observed or reported, with its source; `robot-fault`:
 # the robot behind a link stopped (its text the cause, its evidence the robot's last
 # joint state); or one of the dialogue's.
 EventKind = Literal[
@@ -56,8 +56,12 @@ HUMAN: EventKind = "human"
 ROBOT_FAULT: EventKind = "robot-fault"
 # Who answered a branching node: a click in the dashboard, the console's numbered
 # choices, a seeded random choice, a script, the planner's hoped outcome, the
-# camera or the voice.
-AnswerSource = Literal["click", "console", "random", "scripted", "expected", "camera", "voice"]
+# camera or the voice. A `human` event's source says where its times come from:
+# `simulated` (the simulated human's own times), `camera` or `voice` (observed), or
+# `click`/`console` (reported: an operator's click ends the human's action).
+AnswerSource = Literal[
+    "click", "console", "random", "scripted", "expected", "camera", "voice", "simulated"
+]
 ANSWER_SOURCES: tuple[AnswerSource, ...] = get_args(AnswerSource)
 
 
@@ -99,10 +103,26 @@ class ExecutionControls(Protocol):
         node_id: str | None = None,
     ) -> ExecutionEvent: ...
 
+    def observe_human(
+        self,
+        start: float,
+        end: float,
+        text: str,
+        source: AnswerSource,
+        evidence: Evidence | None = None,
+        node_id: str | None = None,
+    ) -> ExecutionEvent: ...
+
 
 class OutcomeError(Exception):
     """A source answered with something that is not an outcome of the node."""
 
+
+# Which clock a session ran on: `simulated` (headless runs and studies: no time
+# passes, the same session for the same seed) or `wall` (a person, a device or a
+# robot: every step takes the time it really takes).
+Clock = Literal["simulated", "wall"]
+CLOCKS: tuple[Clock, ...] = get_args(Clock)
 
 # How an execution ended: at a goal leaf, stopped by the operator, stopped by the
 # program (a signal, the dashboard closing), or at a node with no way on.
@@ -127,7 +147,10 @@ class ExecutionEvent:
     `start`/`end` (epoch seconds, simulated in a headless run) are when the step
     began and ended: a question until its answer, a `human` event the human's
     action; None in a session stored before events were timed. `time` is when the
-    event was recorded, its `end` in a timed session.
+    event was recorded, its `end` in a timed session. `wait_start` is when, within
+    the step, the robot began waiting for the human: a question once asked (its
+    speech over), a sensing of the human on the wall clock from its start; from
+    then to `end` the robot is idle in Hoffman's sense (None: it acted throughout).
     """
 
     seq: int
@@ -145,6 +168,7 @@ class ExecutionEvent:
     # Not compared: the JSON export does not carry them yet, and reads back as equal.
     start: float | None = field(default=None, compare=False)
     end: float | None = field(default=None, compare=False)
+    wait_start: float | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)

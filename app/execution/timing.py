@@ -1,19 +1,21 @@
 """When each event of an execution starts and ends: the wall clock, or a simulated one.
 
-Real runs (a camera, a voice, the dashboard) keep the wall clock
+Real runs (a camera, a voice, the dashboard, a robot) keep the wall clock
 (`WallTimeline`): an event starts when the executor reaches its node and ends
-when it is recorded. Headless runs simulate time (`SimulatedTimeline`): no
-sleeping, the same session for the same seed. There a robot action lasts as
-long as its motion takes, each segment of the joint path at the speed of the
-joint that needs longest at `SPEED_RATIO` of Baxter's joint velocity limits (read
-from the URDF the feasibility checks load; `BAXTER_VELOCITY_LIMITS` if missing); a
-spoken line as long as its audio (`Spoken.duration_s`) or, without audio, its
-words at espeak-ng's default rate; a sensing action `CAMERA_SETTLE_S`; a
-question until its answer. The simulated human reacts to a request after a
-seeded delay, then acts for a seeded duration (each a `Pace` the scenario's
-[human] section sets) while the robot goes on; a sensing node that watches the
-human waits until it is done. The simulated clock leaves out the time planning
-again takes, which no seed fixes.
+once what it does has taken its real time (a motion played, drawn or made by the
+robot; a line spoken; a question until its answer); a click that answers for the
+human ends the human's action it reports, begun at the robot's request. Headless
+runs simulate time (`SimulatedTimeline`): no sleeping, the same session for the
+same seed. There a robot action lasts as long as its motion takes, each segment
+of the joint path at the speed of the joint that needs longest at `SPEED_RATIO`
+of Baxter's joint velocity limits (read from the URDF the feasibility checks
+load; `BAXTER_VELOCITY_LIMITS` if missing); a spoken line as long as its audio
+(`Spoken.duration_s`) or, without audio, its words at espeak-ng's default rate;
+a sensing action `CAMERA_SETTLE_S`; a question until its answer. The simulated
+human reacts to a request after a seeded delay, then acts for a seeded duration
+(each a `Pace` the scenario's [human] section sets) while the robot goes on; a
+sensing node that watches the human waits until it is done. The simulated clock
+leaves out the time planning again takes, which no seed fixes.
 """
 
 from __future__ import annotations
@@ -24,11 +26,12 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
-from typing import Literal, Protocol, get_args
+from typing import Literal, NamedTuple, Protocol, get_args
 from xml.etree import ElementTree
 
-from app.execution.events import HUMAN, ExecutionEvent
+from app.execution.events import HUMAN, AnswerSource, Clock, ExecutionEvent, describe
 from app.execution.evidence import Evidence
+from app.execution.surprises import HumanAttached, Surprise
 from planner.plan.model import Motion, PlanNode
 from planner.scenario.sections import Human
 from planner.vocabulary import (
@@ -164,26 +167,52 @@ def watches_human(node: PlanNode) -> bool:
     )  # fmt: skip
 
 
-class Timeline(Protocol):
-    """The times of a walk's events; `simulated` when no time really passes."""
+def waits_for_human(node: PlanNode) -> bool:
+    """Whether the robot waits for the human at `node`: a question, or a sensing of the
+    human."""
+    return (node.kind == "communication" and bool(node.outcomes)) or (
+        node.kind == "sensing" and watches_human(node)
+    )
 
-    simulated: bool
+
+class StepTimes(NamedTuple):
+    """When a step started and ended, and when within it the robot began waiting for
+    the human (`ExecutionEvent.wait_start`; None: it acted throughout)."""
+
+    start: float
+    end: float
+    wait_start: float | None = None
+
+
+class Timeline(Protocol):
+    """The times of a walk's events, on a `clock`: `simulated` (no time really passes)
+    or `wall` (every step takes the time it really takes)."""
+
+    clock: Clock
 
     def begin(self, node: PlanNode) -> float:
         """When the robot starts `node` (after waiting for the human, if it must)."""
         ...
 
-    def finish(
-        self, node: PlanNode, spoken: Evidence | None, motion: Motion | None
-    ) -> tuple[float, float]:
+    def speech_left(self, node: PlanNode, spoken: Evidence | None) -> float:
+        """Seconds the walk still waits for `node`'s spoken line to end (its audio, or
+        its words at espeak-ng's rate) on the wall clock; 0 on a simulated one."""
+        ...
+
+    def finish(self, node: PlanNode, spoken: Evidence | None, motion: Motion | None) -> StepTimes:
         """When the node last begun started and ends."""
         ...
 
-    def human_event(
-        self, node_id: str, node: PlanNode, outcome: str | None, after: float
+    def human_event(self, event: ExecutionEvent, node: PlanNode) -> ExecutionEvent | None:
+        """The human's action that the step `event` (just recorded, at `node`) starts
+        or ends, as an event to record, if its times are known now."""
+        ...
+
+    def surprise_event(
+        self, node_id: str, node: PlanNode, surprise: Surprise, source: AnswerSource
     ) -> ExecutionEvent | None:
-        """The task action the human starts after `node` (which ended at `after`, with
-        `outcome`), as an event to record (only in a simulated run)."""
+        """The human's surprising action that `source` saw at `node`, if this clock
+        times it (a camera keeps what it observes itself)."""
         ...
 
     def now(self) -> float:
@@ -191,27 +220,75 @@ class Timeline(Protocol):
         ...
 
 
-class WallTimeline:
-    """The wall clock: events start when reached and end when recorded."""
+# Who reports a human's action by a click: its end is the click, its start the
+# robot's request it answers.
+REPORTED: tuple[AnswerSource, ...] = ("click", "console")
 
-    simulated = False
+
+class WallTimeline:
+    """The wall clock: a step starts when reached and ends when done, the walk having
+    waited for what takes time (a motion played or made, a line spoken, an answer).
+    The human's actions reported by clicks are timed here (`human_event`); a camera or
+    a voice records the ones it observes itself."""
+
+    clock: Clock = "wall"
 
     def __init__(self) -> None:
         self.started = time.time()
+        # When the robot last asked the human for an action not yet reported done.
+        self.requested: float | None = None
 
     def begin(self, node: PlanNode) -> float:
         self.started = time.time()
         return self.started
 
-    def finish(
-        self, node: PlanNode, spoken: Evidence | None, motion: Motion | None
-    ) -> tuple[float, float]:
-        return self.started, max(self.started, time.time())
+    def speech_left(self, node: PlanNode, spoken: Evidence | None) -> float:
+        if node.kind != "communication":
+            return 0.0
+        return max(0.0, self.started + speech_seconds(node.say, spoken) - time.time())
 
-    def human_event(
-        self, node_id: str, node: PlanNode, outcome: str | None, after: float
+    def finish(self, node: PlanNode, spoken: Evidence | None, motion: Motion | None) -> StepTimes:
+        end = max(self.started, time.time())
+        wait_start = None
+        if node.kind == "communication" and node.outcomes:
+            wait_start = min(end, self.started + speech_seconds(node.say, spoken))
+        elif waits_for_human(node):
+            wait_start = self.started
+        return StepTimes(self.started, end, wait_start)
+
+    def human_event(self, event: ExecutionEvent, node: PlanNode) -> ExecutionEvent | None:
+        assert event.start is not None and event.end is not None
+        reported = None
+        if event.source in REPORTED and waits_for_human(node):
+            # The click ends the human's action; it began when the robot asked for it
+            # (this question once asked, or an earlier request).
+            asked = event.wait_start if event.wait_start is not None else event.start
+            start = min(self.requested, asked) if self.requested is not None else asked
+            self.requested = None
+            what = describe(node.action, event.outcome)
+            words = f"the human's action, reported by a {event.source}: {what}"
+            reported = ExecutionEvent(
+                0, event.end, event.node, node.action, HUMAN, source=event.source, text=words,
+                start=start, end=event.end,
+            )  # fmt: skip
+        if human_activity(node, event.outcome) is not None:
+            self.requested = event.end  # asked now: the human starts on it
+        return reported
+
+    def surprise_event(
+        self, node_id: str, node: PlanNode, surprise: Surprise, source: AnswerSource
     ) -> ExecutionEvent | None:
-        return None  # a real human's actions are not timed by the robot
+        if source not in REPORTED:
+            return None
+        # Reported by a click: the action ended then, and began at the robot's
+        # request or, without one, when the robot began the node that saw it.
+        end = time.time()
+        start = self.requested if self.requested is not None else self.started
+        self.requested = None
+        words = f"the human's surprise, reported by a {source}: {surprise}"
+        return ExecutionEvent(
+            0, end, node_id, node.action, HUMAN, source=source, text=words, start=start, end=end
+        )
 
     def now(self) -> float:
         return time.time()
@@ -222,7 +299,7 @@ class SimulatedTimeline:
     now by default); the human's times are drawn, seeded by `seed`, from the paces of
     the scenario's [human] section (its defaults without one)."""
 
-    simulated = True
+    clock: Clock = "simulated"
 
     def __init__(
         self,
@@ -240,10 +317,11 @@ class SimulatedTimeline:
             self.robot_free = max(self.robot_free, self.human_free)
         return self.robot_free
 
-    def finish(
-        self, node: PlanNode, spoken: Evidence | None, motion: Motion | None
-    ) -> tuple[float, float]:
-        start, seconds = self.robot_free, 0.0
+    def speech_left(self, node: PlanNode, spoken: Evidence | None) -> float:
+        return 0.0
+
+    def finish(self, node: PlanNode, spoken: Evidence | None, motion: Motion | None) -> StepTimes:
+        start, seconds, wait_start = self.robot_free, 0.0, None
         if node.kind == "actuation":
             seconds = motion_seconds(motion)
         elif node.kind == "sensing":
@@ -251,23 +329,38 @@ class SimulatedTimeline:
         elif node.kind == "communication":
             seconds = speech_seconds(node.say, spoken)
             if node.outcomes:  # a question lasts until the answer
+                wait_start = start + seconds
                 seconds += self.paces["answer"].draw(self.rng)
         self.robot_free = start + seconds
-        return start, self.robot_free
+        return StepTimes(start, self.robot_free, wait_start)
 
-    def human_event(
-        self, node_id: str, node: PlanNode, outcome: str | None, after: float
-    ) -> ExecutionEvent | None:
-        activity = human_activity(node, outcome)
+    def human_event(self, event: ExecutionEvent, node: PlanNode) -> ExecutionEvent | None:
+        activity = human_activity(node, event.outcome)
         if activity is None:
             return None
+        assert event.end is not None
         # The human reacts, then acts, once done with what it was doing.
-        start = max(after + self.paces["react"].draw(self.rng), self.human_free)
+        start = max(event.end + self.paces["react"].draw(self.rng), self.human_free)
         self.human_free = start + self.paces[activity].draw(self.rng)
         words = f"{HUMAN_ACTION_WORDS[activity]}, as asked at {node.action}"
         return ExecutionEvent(
-            0, self.human_free, node_id, node.action, HUMAN, text=words, start=start,
-            end=self.human_free,
+            0, self.human_free, event.node, node.action, HUMAN, source="simulated",
+            text=words, start=start, end=self.human_free,
+        )  # fmt: skip
+
+    def surprise_event(
+        self, node_id: str, node: PlanNode, surprise: Surprise, source: AnswerSource
+    ) -> ExecutionEvent | None:
+        # The simulated human did it just before it was seen, once done with what it
+        # was doing, in the time of a like task action.
+        activity: HumanActivity = "attach" if isinstance(surprise, HumanAttached) else "unhold"
+        end = max(self.robot_free, self.human_free)
+        start = max(self.human_free, end - self.paces[activity].draw(self.rng))
+        self.human_free = end
+        words = f"the human's surprise: {surprise}"
+        return ExecutionEvent(
+            0, end, node_id, node.action, HUMAN, source="simulated", text=words,
+            start=start, end=end,
         )  # fmt: skip
 
     def now(self) -> float:

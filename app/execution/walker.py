@@ -18,8 +18,11 @@ makes each motion before its event is recorded, and a pause cancels it at once. 
 "stop" and keeps the dialogue's turns with `note`, from its own thread).
 
 Every event has a `start` and an `end` from the `timeline` (`app.execution.timing`):
-the wall clock by default, or a simulated one in which a request starts the
-simulated human's own action (an event of kind `human`) while the robot goes on.
+a simulated clock by default, in which a request starts the simulated human's own
+action (an event of kind `human`) while the robot goes on, or the wall clock, on
+which a step ends once it has taken its real time (the motion made by the robot,
+played by a `player`, or waited for; the line spoken; the answer given) and a
+source that observes the human keeps its actions with `observe_human`.
 
 Slots follow the world: what the human's and the robot's slot choices change
 (the slot map, re-targeted motions, a surprise where the plan counts on a point)
@@ -34,12 +37,12 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
 from typing import NamedTuple
 
+from app.execution.event_log import EventLog
 from app.execution.events import (
     INTERRUPTED,
     REPAIR,
     ROBOT_FAULT,
     AnswerSource,
-    DialogueKind,
     EventKind,
     ExecutionEvent,
     Outcome,
@@ -56,7 +59,7 @@ from app.execution.robot_drive import RobotDriver, RobotStopped
 from app.execution.run_gate import Aborted, RunGate
 from app.execution.slots import Retarget, Slots
 from app.execution.surprises import Surprise, SurpriseError
-from app.execution.timing import Timeline, WallTimeline
+from app.execution.timing import SimulatedTimeline, Timeline, motion_seconds
 from planner.plan.model import Motion, Plan, PlanNode
 
 __all__ = ["INTERRUPTED", "Executor", "Listener", "Narrator", "Repairing", "Retarget", "Waypoint"]
@@ -66,6 +69,9 @@ Listener = Callable[[ExecutionEvent], None]
 Repairing = Callable[[PlanNode, Surprise], tuple[Repair, str]]
 # Speaks a communication node's sentence; what it returns is kept with the event.
 Narrator = Callable[[str, PlanNode], Evidence | None]
+# Plays an arm motion (node id, motion) while the walk waits: the dashboard's
+# animation of the drawn arm. It returns once the motion has been shown.
+Player = Callable[[str, Motion], None]
 
 
 def _event_kind(node: PlanNode) -> EventKind:
@@ -109,17 +115,24 @@ class Executor:
         waypoint_s: float = 0.0,
         timeline: Timeline | None = None,
         robot: RobotDriver | None = None,
+        player: Player | None = None,
     ) -> None:
         self.plan = plan
         # The robot behind a link that makes the motions (None: they are only drawn).
         self.robot = robot
-        self.timeline: Timeline = timeline if timeline is not None else WallTimeline()
+        self.player = player
+        # Without a clock of its own a walk is simulated: fast, the same every time.
+        self.timeline: Timeline = timeline if timeline is not None else SimulatedTimeline(0)
         self.slots = Slots(plan, retarget, replans=repairing is not None)
         self.narrator = narrator
         self.repairing = repairing
         self.nodes = plan.nodes
         self.source = source
-        self.listeners = list(listeners)
+        self.log = EventLog(self.timeline, listeners, self._where)
+        self.listeners = self.log.listeners  # the same list: tests and panels add to it
+        # From any thread: a turn of the dialogue, and a human action a source observed.
+        self.note = self.log.note
+        self.observe_human = self.log.observe_human
         self.step_delay = step_delay
         # Seconds an arm takes from one waypoint of its path to the next (0: a motion
         # takes no time); a pause stops the arm at its next waypoint.
@@ -128,11 +141,10 @@ class Executor:
         self.result: Result | None = None
         self.error: BaseException | None = None
         self.current: str | None = None  # the node being run
-        self.events: list[ExecutionEvent] = []
+        self.events = self.log.events
         self.gate = RunGate()
         self._thread: threading.Thread | None = None
         self._done = threading.Event()
-        self._recording = threading.RLock()  # events come from the walk and the voice
         attach = getattr(source, "attach", None)
         if callable(attach):
             attach(self)  # a source that pauses and records (the voice) is told who runs
@@ -266,6 +278,9 @@ class Executor:
         spoken = None
         if self.narrator is not None and node.kind == "communication" and node.say:
             spoken = self.narrator(node_id, node)
+        # On the wall clock a line lasts as long as it is spoken (a question is asked
+        # before it is answered).
+        self.gate.sleep(self.timeline.speech_left(node, spoken))
         if node.outcomes:
             return self._branching_step(node_id, node, spoken)
         return self._deterministic_step(node_id, node, spoken)
@@ -276,14 +291,26 @@ class Executor:
         text = node.say if node.kind == "communication" else None
         step = self.slots.at(node_id, node, None)
         evidence = merged(spoken, step.evidence)
-        if step.motion is not None and self.robot is not None:
-            # The robot moves first: its event says what it did, when it is done.
-            moved = Evidence(robot=self._drive(node_id, node, step.motion))
+        if step.motion is not None:
+            # The arm moves first: its event says what it did, from start to end.
+            moved = self._make_motion(node_id, node, step.motion)
             evidence = merged(evidence, moved)
         self._emit(node_id, node, text=text, motion=step.motion, spoken=spoken, evidence=evidence)
-        if step.motion is not None and self.waypoint_s > 0 and self.robot is None:
-            self._move(node_id, step.motion)
         return _Next(node.children[0].node)
+
+    def _make_motion(self, node_id: str, node: PlanNode, motion: Motion) -> Evidence | None:
+        """The motion made, in its time: by the robot (what it did is the evidence),
+        played by the page, stepped through its waypoints, or on the wall clock its
+        time-parameterised duration waited; on a simulated clock it takes none."""
+        if self.robot is not None:
+            return Evidence(robot=self._drive(node_id, node, motion))
+        if self.player is not None:
+            self.player(node_id, motion)
+        elif self.waypoint_s > 0:
+            self._move(node_id, motion)
+        elif self.timeline.clock == "wall":
+            self.gate.sleep(motion_seconds(motion))
+        return None
 
     def _drive(self, node_id: str, node: PlanNode, motion: Motion) -> RobotMotion:
         """The robot makes `motion`; a fault it cannot get past stops the walk."""
@@ -291,7 +318,7 @@ class Executor:
 
         def fault(record: RobotMotion) -> None:
             event = ExecutionEvent(0, 0.0, node_id, node.action, ROBOT_FAULT, text=record.detail)
-            self._record(replace(event, evidence=Evidence(robot=record)))
+            self.log.record(replace(event, evidence=Evidence(robot=record)))
 
         try:
             return self.robot.drive(motion, node.action, self.gate.within_node, fault)
@@ -373,10 +400,14 @@ class Executor:
         except (RepairFailed, SurpriseError) as err:
             self._emit(node_id, node, source=source, text=f"surprise ignored: {err}")
             return None
+        # What the human did is their activity, whatever the plan expected.
+        acted = self.timeline.surprise_event(node_id, node, surprise, source)
+        if acted is not None:
+            self.log.record(acted)
         replanned = Replanned(
             str(surprise), tuple(sorted(repair.observed)), digest, round(repair.seconds, 3)
         )
-        self._record(
+        self.log.record(
             ExecutionEvent(
                 0, 0.0, node_id, node.action, REPAIR, source=source, text=repair.words,
                 evidence=Evidence(replanned=replanned), plan=repair.plan,
@@ -389,36 +420,14 @@ class Executor:
 
     def _emit_stop(self, node_id: str, reason: str) -> None:
         """The last event of an interrupted walk: where it stood, and why it stopped."""
-        self._record(ExecutionEvent(0, 0.0, node_id, None, INTERRUPTED, text=reason))
+        self.log.record(ExecutionEvent(0, 0.0, node_id, None, INTERRUPTED, text=reason))
 
-    def note(
-        self,
-        kind: DialogueKind,
-        text: str,
-        source: AnswerSource | None = None,
-        evidence: Evidence | None = None,
-        node_id: str | None = None,
-    ) -> ExecutionEvent:
-        """Keeps a turn of the dialogue (from any thread) at `node_id`, by default the
-        node being run (else the last one, else the root)."""
-        if node_id is None:
-            last = self.events[-1].node if self.events else self.plan.root
-            node_id = self.current or last
-        event = ExecutionEvent(0, 0.0, node_id, None, kind, source=source, text=text)
-        return self._record(replace(event, evidence=evidence))
+    # -- recording (app.execution.event_log): the walk's, a source's own thread's
 
-    def _record(self, event: ExecutionEvent) -> ExecutionEvent:
-        """`event`, numbered and timed (now, when it has no times of its own), kept and
-        told to the listeners in order."""
-        with self._recording:
-            now = self.timeline.now()
-            start = now if event.start is None else event.start
-            end = now if event.end is None else event.end
-            event = replace(event, seq=len(self.events), time=end, start=start, end=end)
-            self.events.append(event)
-            for listener in self.listeners:
-                listener(event)
-        return event
+    def _where(self) -> str:
+        """The node an event is kept at: the one being run, else the last, else the root."""
+        last = self.events[-1].node if self.events else self.plan.root
+        return self.current or last
 
     def _emit(
         self,
@@ -434,15 +443,15 @@ class Executor:
         evidence: Evidence | None = None,
     ) -> None:
         """Records the step at `node`, timed from its `begin`, then the human's action it
-        starts, if any."""
-        start, end = self.timeline.finish(node, spoken, motion)
-        self._record(
+        starts or reports, if its times are known."""
+        times = self.timeline.finish(node, spoken, motion)
+        recorded = self.log.record(
             ExecutionEvent(
                 0, 0.0, node_id, node.action, _event_kind(node), outcome=outcome, source=source,
                 confidence=confidence, text=text, motion=motion, evidence=evidence,
-                start=start, end=end,
+                start=times.start, end=times.end, wait_start=times.wait_start,
             )
         )  # fmt: skip
-        human = self.timeline.human_event(node_id, node, outcome, end)
+        human = self.timeline.human_event(recorded, node)
         if human is not None:
-            self._record(human)
+            self.log.record(human)

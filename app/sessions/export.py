@@ -22,8 +22,8 @@ from planner.vocabulary import parse_action
 EXPORT_FORMAT = "tandem-session/2"
 # The CSV export's columns: the event's own fields, its time in epoch seconds.
 CSV_COLUMNS = (
-    "seq", "time", "start", "end", "node", "kind", "action", "outcome", "source",
-    "confidence", "text",
+    "seq", "time", "start", "end", "wait_start", "node", "kind", "action", "outcome",
+    "source", "confidence", "text",
 )  # fmt: skip
 
 
@@ -50,6 +50,7 @@ def export_event(event: ExecutionEvent) -> dict[str, Any]:
         **event_row(event),
         "start": event.start,  # when the step began and ended (None: untimed)
         "end": event.end,
+        "wait_start": event.wait_start,  # when the robot began waiting for the human
         "evidence": (
             None if evidence is None else {**evidence.to_json(), "jpeg": evidence.jpeg is not None}
         ),
@@ -72,6 +73,7 @@ def exported_event(row: Mapping[str, Any]) -> ExecutionEvent:
         evidence=None if evidence is None else Evidence.from_json(evidence),
         start=row.get("start"),
         end=row.get("end"),
+        wait_start=row.get("wait_start"),
     )
 
 
@@ -82,7 +84,10 @@ def events_csv(events: Iterable[ExecutionEvent]) -> str:
     writer = csv.DictWriter(out, CSV_COLUMNS, lineterminator="\n")
     writer.writeheader()
     for event in events:
-        row = {**event_row(event), "start": event.start, "end": event.end}
+        row = {
+            **event_row(event), "start": event.start, "end": event.end,
+            "wait_start": event.wait_start,
+        }  # fmt: skip
         writer.writerow({column: _cell(row[column]) for column in CSV_COLUMNS})
     return out.getvalue()
 

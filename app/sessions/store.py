@@ -18,7 +18,7 @@ import socket
 import sqlite3
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
 from datetime import date, datetime
@@ -28,7 +28,7 @@ from typing import Any
 from sqlite_utils import Database
 from sqlite_utils.db import Table
 
-from app.execution.events import ExecutionEvent, Result, is_step
+from app.execution.events import Clock, ExecutionEvent, Result, is_step
 from app.execution.evidence import Evidence
 from app.sessions.database import StoreError, open_database, unusable
 from app.sessions.export import EXPORT_FORMAT, event_row, export_event
@@ -43,8 +43,9 @@ from planner.vocabulary import parse_action
 _KNOWN_PLANS = 8
 
 DB_NAME = "sessions.db"
-# The events' own columns for when a step began and ended (`ExecutionEvent.start`/`end`).
-EVENT_TIMES = ("started", "ended")
+# The events' own columns for when a step began and ended (`ExecutionEvent.start`/`end`)
+# and when within it the robot began waiting for the human (`wait_start`).
+EVENT_TIMES = ("started", "ended", "wait_start")
 
 
 class UnknownSession(KeyError):
@@ -64,6 +65,9 @@ class SessionRecord:
     note: str | None
     pid: int | None
     host_boot: str | None
+    # The clock its events' times are on (`app.execution.timing.Clock`): None in a
+    # session stored before sessions said, whose times cannot be trusted.
+    clock: str | None = None
     events: int = 0
 
     def to_json(self) -> dict[str, Any]:
@@ -75,11 +79,15 @@ class SessionRecord:
 
 # The columns of a `SessionRecord`, in its fields' order, with its count of events
 # (the events' primary key index counts them without reading a row).
-SESSION_SELECT = (
-    "select "
-    + ", ".join(f"s.{f.name}" for f in fields(SessionRecord) if f.name != "events")
-    + ", (select count(*) from events e where e.session_id = s.id) from sessions s"
-)
+def session_select(columns: Collection[str]) -> str:
+    """The query of `SessionRecord`s from a sessions table with `columns` (a store
+    opened read-only may be older than some: those read as null)."""
+    names = (f.name for f in fields(SessionRecord) if f.name != "events")
+    return (
+        "select "
+        + ", ".join(f"s.{name}" if name in columns else "null" for name in names)
+        + ", (select count(*) from events e where e.session_id = s.id) from sessions s"
+    )
 
 
 def iso(t: float) -> str:
@@ -119,6 +127,9 @@ class SessionStore:
         self._plans: dict[int, tuple[Plan, str]] = {}
         self.interrupted: list[int] = []
         self.db, self.read_only = open_database(self.db_path, self._create, read_only=read_only)
+        with self._reading():
+            columns = [row[1] for row in self.db.execute("pragma table_info(sessions)")]
+        self._session_select = session_select(columns)
         if self.read_only is None:
             self.interrupted = self.mark_interrupted()
 
@@ -172,6 +183,7 @@ class SessionStore:
                 "note": str,
                 "pid": int,
                 "host_boot": str,
+                "clock": str,
             },
             pk="id",
             foreign_keys=[("plan_hash", "plans", "hash")],
@@ -191,6 +203,7 @@ class SessionStore:
                 "text": str,
                 "started": float,
                 "ended": float,
+                "wait_start": float,
             },
             pk=("session_id", "seq"),
             foreign_keys=[("session_id", "sessions", "id")],
@@ -200,6 +213,8 @@ class SessionStore:
         for column in EVENT_TIMES:  # a store older than timed events gets them, null
             if column not in events.columns_dict:
                 events.add_column(column, float)
+        if "clock" not in _table(db, "sessions").columns_dict:
+            _table(db, "sessions").add_column("clock", str)  # null: said nothing
         _table(db, "evidence").create(
             {"session_id": int, "seq": int, "detail": str, "jpeg": bytes},
             pk=("session_id", "seq"),
@@ -236,8 +251,10 @@ class SessionStore:
         *,
         note: str | None = None,
         pid: int | None = None,
+        clock: Clock | None = None,
     ) -> int:
-        """A new session of `plan`, owned by this process (or `pid`); its id."""
+        """A new session of `plan`, owned by this process (or `pid`), its events timed on
+        `clock` (None: untimed); its id."""
         digest = self.add_plan(plan)
         row = {
             "scenario": plan.scenario.name,
@@ -249,6 +266,7 @@ class SessionStore:
             "note": note,
             "pid": os.getpid() if pid is None else pid,
             "host_boot": boot_id() or socket.gethostname(),
+            "clock": clock,
         }
         with self._writing():
             table = self._table("sessions").insert(row)
@@ -260,7 +278,7 @@ class SessionStore:
         """Stores one event; committed before this returns."""
         row = {
             "session_id": session_id, **event_row(event), "started": event.start,
-            "ended": event.end,
+            "ended": event.end, "wait_start": event.wait_start,
         }  # fmt: skip
         evidence = event.evidence
         with self._writing(), self.db.conn:
@@ -326,7 +344,7 @@ class SessionStore:
             where.append("s.started >= ?")
             params.append(_epoch(since))
         sql = (
-            SESSION_SELECT
+            self._session_select
             + (" where " + " and ".join(where) if where else "")
             + " order by s.started, s.id"
         )
@@ -338,7 +356,7 @@ class SessionStore:
 
     def get(self, session_id: int) -> SessionRecord:
         with self._reading():
-            row = self.db.execute(SESSION_SELECT + " where s.id = ?", [session_id]).fetchone()
+            row = self.db.execute(self._session_select + " where s.id = ?", [session_id]).fetchone()
         if row is None:
             raise UnknownSession(session_id)
         return SessionRecord(*row)
@@ -370,6 +388,7 @@ class SessionStore:
                 text=r["text"],
                 start=r.get("started"),  # absent in a store opened read-only before timing
                 end=r.get("ended"),
+                wait_start=r.get("wait_start"),
                 evidence=(
                     Evidence.from_json(json.loads(r["evidence_detail"] or "{}"), r["evidence_jpeg"])
                     if r["has_evidence"]
