@@ -97,11 +97,11 @@ def test_divergence_is_the_first_plan_step_whose_node_or_outcome_differs() -> No
 
 
 def test_metrics_table_and_study_names() -> None:
-    table = metrics_markdown(_timed())
+    table = metrics_markdown(_timed(), "simulated")
     assert "| active | 4.0 s · 100% | 1.0 s · 25% |" in table and "task 4.0 s" in table
     assert "| idle | 0.0 s · 0% | 3.0 s · 75% |" in table
     untimed = [ExecutionEvent(i, 0.0, f"n{i}", None, "communication") for i in range(3)]
-    assert "untimed" in metrics_markdown(untimed)
+    assert "untimed" in metrics_markdown(untimed, "simulated")
     short, common = short_names(["d/normal/cooperative", "d/normal/hesitant"])
     assert short == {"d/normal/cooperative": "cooperative", "d/normal/hesitant": "hesitant"}
     assert common == "d/normal/*"

@@ -59,7 +59,7 @@ def event(
 # Robot: greet 0-2, request 2-4, hold 4-7, (waits) sense 13-14, askHelp 14-18, repair at
 # 18, sense 25-26 (it waits again), attach 26-28 (a camera answer and a voice
 # answer in between), then the goal at 28. Human: attaches 5-13 (reacting 1 s after
-# the request), then 19-25 (1 s after saying yes).
+# the request, while the robot holds leg2), then 19-25 (1 s after saying yes).
 HAND_BUILT = [
     event(0, "communication", 0, 2, Greet()),
     event(1, "communication", 2, 4, RequestToAttach("leg1", "top")),
@@ -80,7 +80,7 @@ HAND_BUILT = [
 
 
 def test_each_measure_of_a_hand_built_session() -> None:
-    m = session_metrics(HAND_BUILT)
+    m = session_metrics(HAND_BUILT, "simulated")
     assert m.timed and m.events == 12 and m.steps == 9  # not the human's nor the dialogue's
     assert m.task_s == 28
     # Robot active: 0-7, 13-18, 25-28 = 7 + 5 + 3.
@@ -89,13 +89,14 @@ def test_each_measure_of_a_hand_built_session() -> None:
     assert m.human_active_s == 14 and m.human_idle_s == 14
     # Both active: 5-7 (the robot holds leg2 while the human attaches leg1).
     assert m.concurrent_s == 2
-    # The human waited 1 s after the request and 1 s after askHelp; the robot started
-    # right as the human ended (13, 25): no delay its way.
-    assert m.functional_delay_s == 2
+    # Nobody acted 18-19, from the robot's askHelp ending to the human starting: 1 s.
+    # The human's 1 s before starting on the request (4-5) is no delay: the robot
+    # was holding leg2 then. The robot started right as the human ended (13, 25).
+    assert m.functional_delay_s == 1
     assert m.robot_idle_share == pytest.approx(13 / 28)
     assert m.human_idle_share == pytest.approx(14 / 28)
     assert m.concurrent_share == pytest.approx(2 / 28)
-    assert m.functional_delay_share == pytest.approx(2 / 28)
+    assert m.functional_delay_share == pytest.approx(1 / 28)
     assert (m.askHelp, m.offerHelp, m.confirmAttach, m.requests) == (1, 0, 0, 1)
     assert m.askHelp_answer_s == 4  # asked at 14, answered at 18
     assert m.requests_answer_s == 1  # the human started 1 s after the request
@@ -112,13 +113,13 @@ def test_functional_delay_counts_the_robot_waiting_too() -> None:
         event(1, HUMAN, 1, 5, RequestToAttach("leg1", "top"), node="n0"),
         event(2, "sensing", 7, 8, SenseHumanAttachingWhere("leg1", "top"), outcome="c1"),
     ]
-    m = session_metrics(session)
+    m = session_metrics(session, "wall")
     assert m.functional_delay_s == 2 and m.task_s == 8
     assert m.robot_active_s == 2 and m.human_active_s == 4 and m.concurrent_s == 0
 
 
 def test_the_row_is_flat_stable_and_csv_ready() -> None:
-    row = session_metrics(HAND_BUILT).row()
+    row = session_metrics(HAND_BUILT, "simulated").row()
     assert tuple(row) == METRIC_KEYS
     assert METRIC_KEYS[:4] == ("timed", "events", "steps", "task_s")
     assert all(isinstance(v, bool | int | float | str | type(None)) for v in row.values())
@@ -126,13 +127,15 @@ def test_the_row_is_flat_stable_and_csv_ready() -> None:
     csv.DictWriter(out, METRIC_KEYS).writerows([row])
     assert out.getvalue().count(",") == len(METRIC_KEYS) - 1
     with pytest.raises(AttributeError):
-        session_metrics(HAND_BUILT).task_s = 1.0  # type: ignore[misc]
+        session_metrics(HAND_BUILT, "simulated").task_s = 1.0  # type: ignore[misc]
 
 
 def test_an_old_session_gives_counts_and_no_times(tmp_path: Path) -> None:
     shutil.copy(OLD_STORE, tmp_path / "sessions.db")
     with SessionStore(tmp_path, read_only=True) as store:
-        measured = {s.note: session_metrics(store.events(s.id)) for s in store.list_sessions()}
+        measured = {
+            s.note: session_metrics(store.events(s.id), s.clock) for s in store.list_sessions()
+        }
     for m in measured.values():
         assert not m.timed and m.events > 0
         times = [k for k in METRIC_KEYS if k.endswith("_s") or k.endswith("_share")]
@@ -140,7 +143,7 @@ def test_an_old_session_gives_counts_and_no_times(tmp_path: Path) -> None:
     assert measured["old repair"].repairs == 1
     assert measured["seed 2; old camera"].camera_answers > 0
     assert measured["seed 1; old voice"].voice_answers > 0
-    nothing = session_metrics([]).row()
+    nothing = session_metrics([], "simulated").row()
     assert nothing == {k: (0 if k in _COUNTS else None) for k in METRIC_KEYS} | {"timed": False}
 
 
@@ -155,7 +158,7 @@ def test_a_simulated_session_adds_up() -> None:
     for seed in range(6):
         executor = Executor(plan, RandomSource(seed), timeline=SimulatedTimeline(seed))
         assert executor.run() == "goal"
-        m = session_metrics(executor.events)
+        m = session_metrics(executor.events, executor.timeline.clock)
         assert m.timed and m.task_s is not None and m.task_s > 0
         assert m.robot_active_s is not None and m.robot_idle_s is not None
         assert m.robot_active_s + m.robot_idle_s == pytest.approx(m.task_s)
@@ -167,11 +170,11 @@ def test_the_cli_writes_csv_and_json_and_refuses_an_unknown_study(tmp_path: Path
     shutil.copy(OLD_STORE, tmp_path / "sessions.db")
     plan = default_plan()
     with SessionStore(tmp_path) as store:
-        session = store.start(plan)
+        session = store.start(plan, clock="simulated")
         timeline = SimulatedTimeline(4, origin=3_000.0)
         Executor(plan, RandomSource(4), [store.recorder(session)], timeline=timeline).run()
         store.finish(session, "goal")
-        expected = session_metrics(store.events(session)).row()
+        expected = session_metrics(store.events(session), "simulated").row()
 
     def tandem(*args: str) -> subprocess.CompletedProcess[str]:
         command = [*tandem_command(), "sessions", "metrics", *args, "--data-dir", str(tmp_path)]

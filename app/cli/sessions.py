@@ -26,8 +26,10 @@ from typing import TYPE_CHECKING
 from app.cli.exit_codes import BadInput
 from app.execution.events import RESULTS
 from app.sessions.export import events_csv
-from app.sessions.metrics import METRIC_KEYS, session_metrics
-from app.sessions.store import SessionStore, iso
+from app.sessions.metrics import METRIC_KEYS
+from app.sessions.store import SessionRecord, SessionStore, iso
+from app.sessions.stored_metrics import stored_metrics
+from app.sessions.studies import FINAL_RESULTS
 from app.sessions.summary import camera_agreement, summary
 
 if TYPE_CHECKING:
@@ -166,15 +168,12 @@ def _metrics(args: argparse.Namespace) -> int:
         else:
             sessions = store.list_sessions(scenario=args.scenario)
         if args.study is not None:
-            tagged = _study_session_ids(store, args.study)
-            sessions = [s for s in sessions if s.id in tagged]
+            sessions = _counted(store, sessions, args.study)
+        measured = stored_metrics(store, sessions)
         rows = [
-            {
-                "session": s.id, "scenario": s.scenario, "result": s.result,
-                **session_metrics(store.events(s.id)).row(),
-            }
-            for s in sessions
-        ]  # fmt: skip
+            {"session": s.id, "scenario": s.scenario, "result": s.result, **m.row()}
+            for s, m in zip(sessions, measured, strict=True)
+        ]
     if args.json:
         text = json.dumps(rows, indent=1) + "\n"
     else:
@@ -192,6 +191,24 @@ def _metrics(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(text)
     return 0
+
+
+def _counted(
+    store: SessionStore, sessions: list[SessionRecord], study: str
+) -> list[SessionRecord]:
+    """Those of `sessions` that `study` counts: tagged with it and ended at a final
+    result, as the study counts them (one killed half-way or still running is run
+    again when the study resumes); says on stderr how many it left out."""
+    tagged = _study_session_ids(store, study)
+    sessions = [s for s in sessions if s.id in tagged]
+    counted = [s for s in sessions if s.result in FINAL_RESULTS]
+    if len(counted) < len(sessions):
+        print(
+            f"{len(sessions) - len(counted)} interrupted or unfinished session(s) of "
+            f"study {study} left out",
+            file=sys.stderr,
+        )
+    return counted
 
 
 def _study_session_ids(store: SessionStore, study: str) -> set[int]:

@@ -1,6 +1,6 @@
 """A reviewed session's measures as a compact markdown table (app.sessions.metrics).
 
-Pure (no viser): `metrics_markdown(events)` puts each agent's active and idle
+Pure (no viser): `metrics_markdown(events, clock)` puts each agent's active and idle
 time (seconds and share of the task) in a small table, then the task time,
 the concurrent activity and the functional delay, the questions by kind, the
 repairs and the fallbacks to clicks, and, in a simulated run, how often the
@@ -54,11 +54,12 @@ def _agreement(m: SessionMetrics) -> str:
     return f" · {'; '.join(said)} with the simulated human" if said else ""
 
 
-def metrics_markdown(events: Sequence[ExecutionEvent]) -> str:
-    """The session's measures, for the review beside its timeline."""
+def metrics_markdown(events: Sequence[ExecutionEvent], clock: str | None) -> str:
+    """The session's measures, for the review beside its timeline (`clock`: the
+    session's, `SessionRecord.clock`)."""
     if not events:
         return ""
-    m = session_metrics(events)
+    m = session_metrics(events, clock)
     counts = (f"{_questions(m)} · **repairs** {m.repairs} · **fallbacks to clicks** "
               f"{m.fallbacks}{_agreement(m)}")  # fmt: skip
     if not m.timed:

@@ -5,7 +5,8 @@ slider; the slider, or a click on a bar, moves the tree's selection, the bench,
 the camera frame of that step and the transcript together (review_timeline.py
 words them), with the session's measures beside (review_metrics.py). Another
 session of the same plan can be drawn under it, with where the two parted
-(review_compare.py), and a study's table and figure shown (review_study.py).
+(review_compare.py), and a study's table and figure shown (review_study.py); the
+opened session downloads as JSON, CSV or MCAP (review_downloads.py).
 
 Drives the dashboard through its `Stage`; refreshes its lists when an execution
 finishes (an `ExecutionFinished` event), see stage.py. Every element is made
@@ -15,7 +16,6 @@ after session keeps the same page.
 
 from __future__ import annotations
 
-import json
 import threading
 import time
 from datetime import date
@@ -26,6 +26,7 @@ import numpy as np
 import viser
 
 from app.dashboard.review_compare import CompareView
+from app.dashboard.review_downloads import SessionDownloads
 from app.dashboard.review_metrics import metrics_markdown
 from app.dashboard.review_study import StudyView
 from app.dashboard.review_timeline import (
@@ -91,8 +92,7 @@ class ReviewPanel:
             self.metrics = gui.add_markdown("")
             self.replay_button = gui.add_button("Replay")
             self.replay_button.on_click(lambda _: self._replay())
-            export = gui.add_button("Export JSON")
-            export.on_click(lambda event: self._export(event.client))
+            self.downloads = SessionDownloads(gui, stage, store, lambda: self.session)
         with gui.add_folder("Study", expand_by_default=False):
             self.study = StudyView(gui, store)
         self.executing = False
@@ -167,7 +167,7 @@ class ReviewPanel:
         self.timeline.max = max(2, len(self.events))
         self.timeline.disabled = not self.events
         self.timeline.value = 1
-        self.metrics.content = metrics_markdown(self.events)
+        self.metrics.content = metrics_markdown(self.events, self.session.clock)
         self.compare.offer(self.session, self.events)
         self.show_step(0)
         self.opened = session_id
@@ -272,9 +272,3 @@ class ReviewPanel:
 
     def close(self) -> None:
         self._replaying.clear()
-
-    def _export(self, client: viser.ClientHandle | None) -> None:
-        if self.session is None or client is None:
-            return
-        content = json.dumps(self.store.export(self.session.id), indent=1).encode()
-        client.send_file_download(f"tandem-session-{self.session.id}.json", content)

@@ -23,7 +23,7 @@ import viser
 from PIL import Image
 
 from app.sessions.database import StoreError
-from app.sessions.metrics import session_metrics
+from app.sessions.metrics import SessionMetrics, session_metrics
 from app.sessions.store import SessionStore
 from app.sessions.studies import (
     FIGURE_METRICS,
@@ -71,6 +71,10 @@ def short_names(conditions: Sequence[str]) -> tuple[dict[str, str], str]:
     )
 
 
+def _measured(store: SessionStore, session_id: int) -> SessionMetrics:
+    return session_metrics(store.events(session_id), store.get(session_id).clock)
+
+
 def study_results(store: SessionStore, name: str) -> StudyResults:
     """The study `name`'s counted sessions and their summary per condition."""
     tagged = study_sessions(store.db, name)
@@ -78,7 +82,7 @@ def study_results(store: SessionStore, name: str) -> StudyResults:
     short, common = short_names(full)
     counted = finished(tagged)
     rows: list[Row] = [
-        {"condition": short[s.condition], **session_metrics(store.events(s.session_id)).row()}
+        {"condition": short[s.condition], **_measured(store, s.session_id).row()}
         for s in counted.values()
     ]
     conditions = tuple(short[c] for c in full)

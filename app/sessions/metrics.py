@@ -1,23 +1,48 @@
 """A session's measures, as a collaboration study reports them.
 
 Hoffman's objective fluency metrics (G. Hoffman, "Evaluating Fluency in
-Human-Robot Collaboration", IEEE Trans. Human-Machine Systems 49(3), 2019):
-human idle time, robot idle time, concurrent activity and functional delay,
-each in seconds and as a share of the task's time. Here the robot is active
-during its plan steps (moving, sensing, speaking, a question until its answer,
-planning again) and the human during its task actions (events of kind `human`);
-task time runs from the first event's start to the last one's end; idle time is
-task time less the agent's active time; concurrent activity is the time both
-are active; functional delay adds up, each time one agent starts an action
-after the other ended one while it had been waiting (its own previous action
-ended before), the time between the one's end and the other's start.
+Human-Robot Collaboration", IEEE Trans. Human-Machine Systems 49(3), 2019),
+each in seconds and as a share of the task time:
+
+- task time: from the first event's start to the last one's end (an
+  interruption's own event only when there is nothing else).
+- robot activity: its steps along the plan (moving, sensing, speaking, asking,
+  planning again after a surprise), each from its start to its end, except
+  the part from the step's `wait_start` to its end: a question waiting for its
+  answer, a sensing of the human watching the human act. Hoffman counts an
+  agent waiting for the other as idle. Robot idle time (R-IDLE) is the task
+  time less the robot's activity.
+- human activity: every `human` event, whatever its source (the simulator's
+  times, the camera's or the voice's observations, an operator's clicks),
+  surprising actions included. Human idle time (H-IDLE) is the task time less
+  the human's activity.
+- concurrent activity (C-ACT): the time both agents are active.
+- functional delay (F-DEL): the time lost between one agent's action ending and
+  the other's beginning. It adds up every stretch in which neither agent acts
+  that begins when one agent's action ends and ends when the other agent's
+  action begins: one agent waited for the other, and nobody acted meanwhile.
+  A pause between two actions of the same agent, the other idle throughout, is
+  not a delay (nobody waited for anybody); nor is the time before the first
+  action or after the last. Earlier versions counted the whole gap from one
+  agent's end to the other's start even when the first agent had gone on with
+  another action (the human reacting to a request while the robot already
+  moved): time in which the robot worked is not lost, so that reading is gone.
+
+An agent's activity is the union of its intervals: two overlapping actions
+count once.
 
 Beside them: questions by kind (askHelp, offerHelp, confirmAttach, and the
 requests) with their mean answer time (a question's start to its answer; a
 request's end to the human starting on it), repairs, fallbacks to clicks (the
 voice giving up on a question), and in simulated runs the camera's and the
-voice's agreement with the truth. A session stored before events were timed
-gives its counts and None for every time (`timed` False).
+voice's agreement with the truth. A session is timed when its clock is known
+(`simulated` or `wall`) and each of its events has a start and an end; an
+untimed one (stored before events had times, or before sessions said their
+clock) gives its counts and None for every time.
+
+The measures read only a few fields of each event (`EventTimes`): the session
+store reads those straight from its rows for thousands of sessions
+(`app.sessions.stored_metrics`), with the same numbers as `session_metrics`.
 """
 
 from __future__ import annotations
@@ -25,9 +50,17 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from statistics import fmean
-from typing import Literal
+from typing import Literal, NamedTuple
 
-from app.execution.events import HUMAN, INTERRUPTED, REPAIR, ExecutionEvent, is_step
+from app.execution.events import (
+    CLOCKS,
+    DIALOGUE_KINDS,
+    HUMAN,
+    INTERRUPTED,
+    REPAIR,
+    ROBOT_FAULT,
+    ExecutionEvent,
+)
 from planner.vocabulary import QUESTIONS, RequestToAttach, RequestToUnhold
 
 Interval = tuple[float, float]
@@ -37,6 +70,39 @@ REQUESTS = (RequestToAttach.name, RequestToUnhold.name)
 # The robot's activity: its steps along the plan (a goal takes no time).
 ROBOT_KINDS = ("actuation", "sensing", "communication", REPAIR)
 FALLBACK = "fell-back"
+# Not steps of the plan (`app.execution.events.is_step`).
+NOT_STEPS = frozenset((INTERRUPTED, HUMAN, ROBOT_FAULT, *DIALOGUE_KINDS))
+Agent = Literal["robot", "human"]
+
+
+class EventTimes(NamedTuple):
+    """What the measures read of an event: its kind, its action's name, node, outcome
+    and source, its times, and the truth's label where a simulation knew it."""
+
+    kind: str
+    action: str | None
+    node: str
+    outcome: str | None
+    source: str | None
+    start: float | None
+    end: float | None
+    wait_start: float | None
+    truth: str | None
+
+
+def event_times(event: ExecutionEvent) -> EventTimes:
+    truth = event.evidence.truth if event.evidence is not None else None
+    return EventTimes(
+        event.kind,
+        None if event.action is None else event.action.name,
+        event.node,
+        event.outcome,
+        event.source,
+        event.start,
+        event.end,
+        event.wait_start,
+        None if truth is None else truth.label,
+    )
 
 
 @dataclass(frozen=True)
@@ -82,9 +148,19 @@ class SessionMetrics:
 METRIC_KEYS: tuple[str, ...] = tuple(f.name for f in fields(SessionMetrics))
 
 
-def session_metrics(events: Sequence[ExecutionEvent]) -> SessionMetrics:
-    """The measures of the session whose events are `events` (in their order)."""
-    timed = bool(events) and all(e.start is not None and e.end is not None for e in events)
+def session_metrics(events: Sequence[ExecutionEvent], clock: str | None) -> SessionMetrics:
+    """The measures of the session whose events are `events` (in their order), timed on
+    `clock` (its `SessionRecord.clock`; None, a session stored before clocks: untimed)."""
+    return measure([event_times(e) for e in events], clock)
+
+
+def measure(events: Sequence[EventTimes], clock: str | None) -> SessionMetrics:
+    """The measures of a session from what they read of its events, in their order."""
+    timed = (
+        clock in CLOCKS
+        and bool(events)
+        and all(e.start is not None and e.end is not None for e in events)
+    )
     counts = {kind: 0 for kind in QUESTION_KINDS}
     for event in events:
         kind = _question_kind(event)
@@ -97,7 +173,7 @@ def session_metrics(events: Sequence[ExecutionEvent]) -> SessionMetrics:
     return SessionMetrics(
         timed=timed,
         events=len(events),
-        steps=sum(1 for e in events if is_step(e)),
+        steps=sum(1 for e in events if e.kind not in NOT_STEPS),
         task_s=times.get("task_s"),
         robot_active_s=times.get("robot_active_s"),
         robot_idle_s=times.get("robot_idle_s"),
@@ -126,30 +202,36 @@ def session_metrics(events: Sequence[ExecutionEvent]) -> SessionMetrics:
     )
 
 
-def _question_kind(event: ExecutionEvent) -> QuestionKind | None:
+def _question_kind(event: EventTimes) -> QuestionKind | None:
     if event.kind != "communication" or event.action is None:
         return None
-    name = event.action.name
-    if name in REQUESTS:
+    if event.action in REQUESTS:
         return "requests"
-    if name in QUESTIONS:
-        return name  # type: ignore[return-value]  # QUESTIONS are the other kinds
+    if event.action in QUESTIONS:
+        return event.action  # type: ignore[return-value]  # QUESTIONS are the other kinds
     return None
 
 
-def _span(event: ExecutionEvent) -> Interval:
+def _span(event: EventTimes) -> Interval:
     assert event.start is not None and event.end is not None
     return event.start, event.end
 
 
-def _times(events: Sequence[ExecutionEvent]) -> dict[str, float]:
+def robot_activity(event: EventTimes) -> Interval:
+    """The part of a robot's step in which it acts: all of it, or up to its wait."""
+    start, end = _span(event)
+    if event.wait_start is None:
+        return start, end
+    return start, min(end, max(start, event.wait_start))
+
+
+def _times(events: Sequence[EventTimes]) -> dict[str, float]:
     """Task time, each agent's active and idle time, concurrency and functional delay."""
     spans = [_span(e) for e in events if e.kind != INTERRUPTED]
     spans = spans or [_span(e) for e in events]
     task = max(end for _, end in spans) - min(start for start, _ in spans)
-    robot_spans = sorted(_span(e) for e in events if e.kind in ROBOT_KINDS)
-    human_spans = sorted(_span(e) for e in events if e.kind == HUMAN)
-    robot, human = _union(robot_spans), _union(human_spans)
+    robot = _union([robot_activity(e) for e in events if e.kind in ROBOT_KINDS])
+    human = _union([_span(e) for e in events if e.kind == HUMAN])
     robot_active, human_active = _length(robot), _length(human)
     return {
         "task_s": task,
@@ -158,7 +240,7 @@ def _times(events: Sequence[ExecutionEvent]) -> dict[str, float]:
         "human_active_s": human_active,
         "human_idle_s": task - human_active,
         "concurrent_s": _length(_intersection(robot, human)),
-        "functional_delay_s": (_delay(robot_spans, human_spans) + _delay(human_spans, robot_spans)),
+        "functional_delay_s": functional_delay(robot, human),
     }
 
 
@@ -168,9 +250,12 @@ def _share(times: dict[str, float], key: str) -> float | None:
 
 
 def _union(spans: list[Interval]) -> list[Interval]:
-    """The disjoint intervals covering `spans`, in order."""
+    """The disjoint intervals covering `spans` (those that last), in order; intervals
+    that touch are one."""
     merged: list[Interval] = []
     for start, end in sorted(spans):
+        if end <= start:
+            continue
         if merged and start <= merged[-1][1]:
             merged[-1] = (merged[-1][0], max(merged[-1][1], end))
         else:
@@ -183,51 +268,65 @@ def _length(spans: list[Interval]) -> float:
 
 
 def _intersection(a: list[Interval], b: list[Interval]) -> list[Interval]:
+    """Where two ordered, disjoint interval lists overlap (one walk along both)."""
     out: list[Interval] = []
-    for a_start, a_end in a:
-        for b_start, b_end in b:
-            start, end = max(a_start, b_start), min(a_end, b_end)
-            if start < end:
-                out.append((start, end))
+    i = j = 0
+    while i < len(a) and j < len(b):
+        start, end = max(a[i][0], b[j][0]), min(a[i][1], b[j][1])
+        if start < end:
+            out.append((start, end))
+        if a[i][1] < b[j][1]:
+            i += 1
+        else:
+            j += 1
     return out
 
 
-def _delay(waiting: list[Interval], other: list[Interval]) -> float:
-    """The time `waiting` took to start after `other` ended an action it waited for: for
-    each of its actions (in start order), from the last end of an action of `other`
-    before it, when all its own earlier actions had ended before that."""
+def functional_delay(robot: list[Interval], human: list[Interval]) -> float:
+    """The stretches in which neither agent acts, each from the end of one agent's
+    activity to the start of the other's (`robot` and `human`: each agent's activity,
+    disjoint and in order)."""
+    bounds: list[tuple[float, float, Agent]] = [(s, e, "robot") for s, e in robot]
+    bounds += [(s, e, "human") for s, e in human]
+    bounds.sort()
+    starters: dict[float, set[Agent]] = {}
+    for start, _, agent in bounds:
+        starters.setdefault(start, set()).add(agent)
     total = 0.0
-    previous_end = float("-inf")
-    for start, end in waiting:
-        ends = [o_end for _, o_end in other if o_end <= start]
-        if ends and max(ends) > previous_end:
-            total += start - max(ends)
-        previous_end = max(previous_end, end)
+    reach = float("-inf")  # the end of all activity so far
+    enders: set[Agent] = set()  # whose activity ends at `reach`
+    for start, end, agent in bounds:
+        # A stretch nobody acts in, opened by `enders` and closed by this start: a
+        # delay unless one and the same agent opens and closes it.
+        if start > reach and enders and (enders != starters[start] or len(enders) > 1):
+            total += start - reach
+        if end > reach:
+            reach, enders = end, {agent}
+        elif end == reach:
+            enders.add(agent)
     return total
 
 
-def _answer_times(events: Sequence[ExecutionEvent]) -> dict[QuestionKind, float]:
+def _answer_times(events: Sequence[EventTimes]) -> dict[QuestionKind, float]:
     """Each kind's mean answer time: a question from its start to its answer; a request
     from its end to the human starting the action it asked for."""
     seconds: dict[QuestionKind, list[float]] = {}
     for k, event in enumerate(events):
         kind = _question_kind(event)
+        if kind is None:
+            continue
         start, end = _span(event)
         if kind == "requests":
             acted = next((e for e in events[k + 1 :] if e.kind == HUMAN), None)
             if acted is not None and acted.node == event.node:
                 seconds.setdefault(kind, []).append(_span(acted)[0] - end)
-        elif kind is not None and event.outcome is not None:
+        elif event.outcome is not None:
             seconds.setdefault(kind, []).append(end - start)
     return {kind: fmean(values) for kind, values in seconds.items()}
 
 
-def _agreement(events: Sequence[ExecutionEvent], source: str) -> tuple[int, float | None]:
+def _agreement(events: Sequence[EventTimes], source: str) -> tuple[int, float | None]:
     """How many answers `source` gave where the truth is known, and the share of them
     that agreed with it (None without any)."""
-    judged = [
-        e.outcome == e.evidence.truth.label
-        for e in events
-        if e.source == source and e.evidence is not None and e.evidence.truth is not None
-    ]
+    judged = [e.outcome == e.truth for e in events if e.source == source and e.truth is not None]
     return len(judged), (sum(judged) / len(judged) if judged else None)
