@@ -77,6 +77,8 @@ def bars(events: Sequence[ExecutionEvent]) -> tuple[list[Bar], bool]:
         lane = LANE_OF.get(event.kind)
         if lane is None:
             continue
+        if event.kind == "human" and event.source == "voice":
+            lane = "talk"  # the human's speech, beside the robot's
         if timed and event.start is not None and event.end is not None:
             start, end = event.start - t0, event.end - t0
         else:

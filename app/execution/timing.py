@@ -146,6 +146,12 @@ def speech_seconds(text: str | None, spoken: Evidence | None) -> float:
     return len((text or "").split()) / SPEECH_WORDS_PER_S
 
 
+def audio_seconds(spoken: Evidence | None) -> float:
+    """How long a line's audio plays on the wall clock; 0 when it was only shown."""
+    said = spoken.spoken if spoken is not None else None
+    return said.duration_s if said is not None and said.duration_s is not None else 0.0
+
+
 def human_activity(node: PlanNode, outcome: str | None) -> HumanActivity | None:
     """The task action the human starts after `node`: what a request asks, or agreeing
     to attach (a "yes" to askHelp or confirmAttach)."""
@@ -245,13 +251,13 @@ class WallTimeline:
     def speech_left(self, node: PlanNode, spoken: Evidence | None) -> float:
         if node.kind != "communication":
             return 0.0
-        return max(0.0, self.started + speech_seconds(node.say, spoken) - time.time())
+        return max(0.0, self.started + audio_seconds(spoken) - time.time())
 
     def finish(self, node: PlanNode, spoken: Evidence | None, motion: Motion | None) -> StepTimes:
         end = max(self.started, time.time())
         wait_start = None
         if node.kind == "communication" and node.outcomes:
-            wait_start = min(end, self.started + speech_seconds(node.say, spoken))
+            wait_start = min(end, self.started + audio_seconds(spoken))
         elif waits_for_human(node):
             wait_start = self.started
         return StepTimes(self.started, end, wait_start)
