@@ -63,9 +63,10 @@ def _click_through(page: Page, dashboard: Dashboard) -> list[ExecutionEvent]:
     events of the session."""
     dashboard.execution.speed.value = SECONDS_PER_STEP
     executor = execute_clicked(page, dashboard)
+    clicks = dashboard.execution.clicks
+    assert clicks is not None
     while not executor.done:
-        clicks = dashboard.execution.clicks
-        offer = clicks.pending() if clicks is not None else None
+        offer = clicks.pending()
         if offer is None:
             time.sleep(0.05)
             continue
@@ -74,7 +75,11 @@ def _click_through(page: Page, dashboard: Dashboard) -> list[ExecutionEvent]:
             button.click(timeout=5000)
         except Exception:
             pass  # answered meanwhile: its buttons went; the loop looks again
-        wait_for(lambda o=offer: clicks.pending() != o or executor.done)
+
+        def answered(asked: object = offer) -> bool:
+            return clicks.pending() != asked or executor.done
+
+        wait_for(answered)
     assert executor.result == "goal", executor.events
     session_id = dashboard.execution.session_id
     assert session_id is not None
