@@ -131,18 +131,39 @@ def test_topics_and_their_ros2_schemas(
 
 
 @pytest.mark.parametrize("session", [1, 2])
-def test_one_log_line_per_event_at_its_time(
+def test_log_lines_when_each_event_starts_waits_and_ends(
     exported: dict[int, Decoded], data_dir: Path, session: int
 ) -> None:
+    """A line when the event is recorded (its end); before it, in these timed
+    sessions, one when it started and one when the robot began waiting."""
     events, _ = stored(data_dir, session)
     logs = exported[session].messages["/rosout"]
-    assert len(logs) == len(events) > 10
-    for event, (log_time, log) in zip(events, logs, strict=True):
-        assert log_time == stamp_ns(log.stamp) == ns(event.time)
-        assert (log.line, log.file, log.function) == (event.seq, event.node, event.kind)
-        assert event.node in log.msg
+    by_seq: dict[int, list[tuple[int, Any]]] = defaultdict(list)
+    for log_time, log in logs:
+        assert log_time == stamp_ns(log.stamp)
+        by_seq[log.line].append((log_time, log))
+    assert sorted(by_seq) == sorted(e.seq for e in events) and len(events) > 10
+    started = waited = 0
+    for event in events:
+        lines = sorted(by_seq[event.seq], key=lambda line: line[0])
+        assert all((m.file, m.function) == (event.node, event.kind) for _, m in lines)
+        end_time, end = lines[-1]
+        assert end_time == ns(event.time) and event.node in end.msg
         if event.outcome is not None:
-            assert f"({event.source})" in log.msg
+            assert f"({event.source})" in end.msg
+        expected = [end_time]
+        assert event.start is not None  # a timed session
+        if event.start < event.time:
+            expected.insert(0, ns(event.start))
+            assert lines[0][1].msg.endswith(" starts")
+            started += 1
+            wait = event.wait_start
+            if wait is not None and event.start <= wait < event.time:
+                expected.insert(1, ns(wait))
+                assert lines[1][1].msg.endswith("the robot waits for the human")
+                waited += 1
+        assert [t for t, _ in lines] == expected
+    assert started > 0 and len(logs) == len(events) + started + waited
 
 
 @pytest.mark.parametrize("session", [1, 2])
@@ -217,8 +238,9 @@ def test_the_spoken_and_heard_lines(exported: dict[int, Decoded], data_dir: Path
         for e in events
         if e.evidence is not None and e.evidence.voice is not None
     ]
+    # The robot speaks when its step begins.
     said = [
-        (ns(e.time), e.evidence.spoken.said)
+        (ns(e.start if e.start is not None else e.time), e.evidence.spoken.said)
         for e in events
         if e.evidence is not None and e.evidence.spoken is not None
     ]
@@ -258,14 +280,15 @@ def test_the_csv_has_one_row_per_event(data_dir: Path, session: int) -> None:
     text = export(data_dir, session, "--format", "csv").stdout
     rows = list(csv.DictReader(io.StringIO(text)))
     assert list(rows[0]) == [
-        "seq", "time", "start", "end", "node", "kind", "action", "outcome", "source",
-        "confidence", "text",
+        "seq", "time", "start", "end", "wait_start", "node", "kind", "action", "outcome",
+        "source", "confidence", "text",
     ]  # fmt: skip
     assert len(rows) == len(events)
     for row, event in zip(rows, events, strict=True):
         assert int(row["seq"]) == event.seq
         assert float(row["time"]) == event.time  # every digit kept
-        for column, value in (("start", event.start), ("end", event.end)):
+        times = (("start", event.start), ("end", event.end), ("wait_start", event.wait_start))
+        for column, value in times:
             assert (None if row[column] == "" else float(row[column])) == value
         assert (row["node"], row["kind"]) == (event.node, event.kind)
         assert row["action"] == ("" if event.action is None else str(event.action))
@@ -326,3 +349,101 @@ def test_an_old_repaired_session_exports_its_plans_and_retargeted_motions(
         ours = next((m for e, m in retargeted if e is event), node.motion)
         expected += len(ours.path)
     assert len(decoded.messages["/joint_states"]) == expected > 0
+
+
+# -- a hand-made session, its times worked out by hand ------------------------------------
+
+LEFT = joint_names("left")
+# At Baxter's joint position speed ratio 0.3, a shoulder (1.5 rad/s) turns 0.45 rad in
+# 1 s and a wrist (4.0 rad/s) 2.4 rad in 2 s: the motion's segments take 1 s and 2 s.
+PATH = [[0.0] * 7, [0.45] + [0.0] * 6, [0.45, 0.0, 0.0, 0.0, 2.4, 0.0, 0.0]]
+HAND_PLAN = {
+    "format": "tandem-plan/1",
+    "scenario": {"name": "hand-made", "sha256": "0" * 64},
+    "facts": [],
+    "root": "m",
+    "nodes": {
+        "m": {"kind": "actuation", "action": "hold(left,leg1)", "state": [],
+              "children": [{"outcome": None, "node": "q"}],
+              "motion": {"arm": "left", "joints": LEFT, "path": PATH}},
+        "q": {"kind": "communication", "action": "askHelp(leg2,top)", "state": [],
+              "say": "Can you attach leg2 to the top?",
+              "children": [{"outcome": "yes", "node": "g"}, {"outcome": "no", "node": "g"}]},
+        "g": {"kind": "goal", "action": None, "state": [], "children": []},
+    },
+}  # fmt: skip
+
+
+def hand_made_session(folder: Path) -> tuple[SessionRun, float]:
+    """A wall-clock session: the arm plays its motion over 6 s (from t0 + 1 to t0 + 7),
+    then asks for help (its line said by t0 + 8, the click at t0 + 10), which reports
+    the human's action from t0 + 8 to t0 + 10; the session's events and t0."""
+    plan = Plan.from_json(HAND_PLAN)
+    with SessionStore(folder) as store:
+        session = store.start(plan, clock="wall")
+        t0 = store.get(session).started
+        hold, ask = plan.nodes["m"].action, plan.nodes["q"].action
+        for event in (
+            ExecutionEvent(0, t0 + 7, "m", hold, "actuation", start=t0 + 1, end=t0 + 7),
+            ExecutionEvent(1, t0 + 10, "q", ask, "communication", outcome="yes", source="click",
+                           start=t0 + 7, end=t0 + 10, wait_start=t0 + 8),
+            ExecutionEvent(2, t0 + 10, "q", ask, "human", source="click", text="attached",
+                           start=t0 + 8, end=t0 + 10),
+            ExecutionEvent(3, t0 + 10, "g", None, "goal", start=t0 + 10, end=t0 + 10),
+        ):  # fmt: skip
+            store.record(session, event)
+        store.finish(session, "goal", t0 + 10)
+        return SessionRun.load(store, session), t0
+
+
+def test_a_hand_made_session_at_its_real_times(tmp_path: Path) -> None:
+    from math import pi, sqrt
+
+    from app.execution.timing import segment_seconds
+    from app.sessions.mcap_export import RobotModel
+    from planner.feasibility.robot import baxter_description
+
+    run, t0 = hand_made_session(tmp_path)
+    description = baxter_description()
+    robot = RobotModel(description, (0.1, -0.2, pi / 2), segment_seconds)
+    path = tmp_path / "hand.mcap"
+    with path.open("wb") as out:
+        write_session(out, run, robot=robot)
+    decoded = Decoded(path)
+    # The waypoints share the stored 6 s as their segments share 3 s: 2 s, then 4 s.
+    states = decoded.messages["/joint_states"]
+    assert [list(m.position) for _, m in states] == PATH
+    assert [t for t, _ in states] == [ns(t0 + 1), ns(t0 + 3), ns(t0 + 7)]
+    # The robot, once at the session's start: its URDF and its base turned a quarter.
+    ((t, urdf),) = decoded.messages["/robot_description"]
+    assert t == ns(t0) and urdf.data == description and '<robot name="baxter"' in urdf.data
+    ((t, static),) = decoded.messages["/tf_static"]
+    (base,) = static.transforms
+    assert t == ns(t0) and (base.header.frame_id, base.child_frame_id) == ("bench", "base")
+    moved, turned = base.transform.translation, base.transform.rotation
+    assert (moved.x, moved.y, moved.z) == (0.1, -0.2, 0.0)
+    assert (turned.z, turned.w) == pytest.approx((sqrt(0.5), sqrt(0.5)))
+    assert decoded.schemas["/robot_description"] == "std_msgs/msg/String"
+    # Each event's lines: when it started, when the robot began waiting, when it ended.
+    lines = [(t, m.line, m.msg) for t, m in decoded.messages["/rosout"]]
+    assert [(t, seq) for t, seq, _ in sorted(lines)] == [
+        (ns(t0 + 1), 0), (ns(t0 + 7), 0), (ns(t0 + 7), 1), (ns(t0 + 8), 1), (ns(t0 + 8), 2),
+        (ns(t0 + 10), 1), (ns(t0 + 10), 2), (ns(t0 + 10), 3),
+    ]  # fmt: skip
+    assert {msg for _, seq, msg in lines if seq == 1} == {
+        "q askHelp(leg2,top) starts",
+        "q askHelp(leg2,top): the robot waits for the human",
+        "q askHelp(leg2,top) -> Human says yes (click)",
+    }
+
+
+def test_without_a_robot_model_the_waypoints_share_the_time_evenly(tmp_path: Path) -> None:
+    run, t0 = hand_made_session(tmp_path)
+    path = tmp_path / "even.mcap"
+    with path.open("wb") as out:
+        write_session(out, run)
+    decoded = Decoded(path)
+    assert [t for t, _ in decoded.messages["/joint_states"]] == [
+        ns(t0 + 1), ns(t0 + 4), ns(t0 + 7)
+    ]  # fmt: skip
+    assert "/robot_description" not in decoded.messages and "/tf_static" not in decoded.messages

@@ -9,6 +9,8 @@ sensor_msgs, tf2_msgs, geometry_msgs, std_msgs and rcl_interfaces.
 
 from __future__ import annotations
 
+import math
+
 SEPARATOR = "=" * 80
 
 HEADER = """builtin_interfaces/Time stamp
@@ -42,6 +44,7 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 LOG = "rcl_interfaces/msg/Log"
+STRING = "std_msgs/msg/String"
 
 DEFINITIONS: dict[str, str] = {
     JOINT_STATE: _definition(
@@ -80,6 +83,7 @@ string file
 string function
 uint32 line"""
     ),
+    STRING: _definition("string data"),
 }
 
 # rcl_interfaces/msg/Log levels
@@ -96,3 +100,8 @@ def stamp(t: float) -> dict[str, int]:
 def nanoseconds(t: float) -> int:
     """Epoch seconds as MCAP's log time (nanoseconds)."""
     return round(t * 1e9)
+
+
+def quaternion_of_yaw(yaw: float) -> dict[str, float]:
+    """A geometry_msgs/Quaternion turning by `yaw` radians about z."""
+    return {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}

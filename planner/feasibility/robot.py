@@ -62,6 +62,12 @@ def baxter_urdf() -> Path:
     return resolved_urdf(_URDF_IN_PREFIX, "baxter")
 
 
+def baxter_description() -> str:
+    """baxter.urdf as shipped, its meshes named `package://example-robot-data/...`: for a
+    viewer that resolves ROS packages on its own machine (an exported session)."""
+    return (share_dir() / _URDF_IN_PREFIX).read_text()
+
+
 def human_urdf() -> Path:
     """The same for example-robot-data's human model (drawn by the dashboard)."""
     return resolved_urdf(HUMAN_URDF_IN_PREFIX, "human")

@@ -1,0 +1,50 @@
+"""The review's downloads: the opened session as JSON, CSV or MCAP (session_files.py).
+
+A click on "Export MCAP" (or JSON, CSV) makes the file and sends it to the page
+that clicked; viser shows it as a link named after the file
+(`tandem-session-12.mcap`), and a click on the link saves it under that name.
+An MCAP file places the parts and the robot with the session's scenario: the
+one loaded when its hash is the session's, else the shipped one with that hash.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import viser
+
+from app.dashboard.session_files import FILE_FORMATS, FileFormat, file_name, scenario_of
+from app.dashboard.session_files import session_file as make_file
+from app.dashboard.stage import Stage
+from app.sessions.store import SessionRecord, SessionStore
+
+
+class SessionDownloads:
+    """One button per file format; `opened` says which session the review shows."""
+
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        stage: Stage,
+        store: SessionStore,
+        opened: Callable[[], SessionRecord | None],
+    ) -> None:
+        self.stage = stage
+        self.store = store
+        self.opened = opened
+        for kind in FILE_FORMATS:
+            gui.add_button(f"Export {kind.upper()}").on_click(self._sender(kind))
+
+    def _sender(self, kind: FileFormat) -> Callable[[viser.GuiEvent[Any]], None]:
+        return lambda event: self.send(event.client, kind)
+
+    def send(self, client: viser.ClientHandle | None, kind: FileFormat) -> None:
+        session = self.opened()
+        if session is None or client is None:
+            return
+        scenario = None
+        if kind == "mcap":
+            scenario = scenario_of(session.scenario_sha256, self.stage.current_scenario())
+        content = make_file(self.store, session.id, kind, scenario)
+        client.send_file_download(file_name(session.id, kind), content)
