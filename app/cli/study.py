@@ -1,8 +1,9 @@
 """`tandem study STUDY.toml`: simulated participants over conditions, resumable.
 
 Each (condition, participant) is one headless session on a simulated timeline,
-run in local processes (or as Ray tasks with `--cluster`) and tagged in the
-store's `study_sessions` table (app.sessions.studies). Run again after an
+run in local processes (or as Ray tasks with `--cluster`), sent back whole and
+stored by this process alone (app.sessions.study_runs), tagged in the store's
+`study_sessions` table (app.sessions.studies). Run again after an
 interruption, the command skips what ended at a final result and runs the rest
 again. It then writes `sessions.csv` (one row per counted session: its tags and
 metrics), `summary.csv` (per condition and metric: n, mean, sd, 95 % interval)
@@ -17,8 +18,8 @@ import multiprocessing as mp
 import signal
 import sys
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from app.cli.exit_codes import BadInput
@@ -35,10 +36,10 @@ from app.sessions.studies import (
     finished,
     jobs,
     load_study,
-    plot_summary,
     study_sessions,
-    tag,
 )
+from app.sessions.study_figure import plot_summary
+from app.sessions.study_runs import PlanKeeper, Plans, SessionRun, plan_hash, store_run
 from planner.plan.model import Plan
 from planner.scenario.model import Scenario
 
@@ -61,7 +62,8 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--cluster",
         metavar="auto|ray://HOST:PORT",
-        help="run the sessions as Ray tasks on this cluster (its nodes must see --data-dir)",
+        help="run the sessions as Ray tasks on this cluster (they send their sessions back: "
+        "only this machine needs --data-dir)",
     )
     parser.set_defaults(run=run)
 
@@ -75,21 +77,21 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput(f"--workers {args.workers}: must be 0 or more")
     _check_scenarios(study)
     out = Path(args.out) if args.out else study.path.parent / study.name
+    # The only writer of the store: the sessions run elsewhere come back here.
     with SessionStore(args.data_dir) as store:
         ensure_table(store.db)
         done = finished(study_sessions(store.db, study.name))
-        data_dir = str(store.data_dir)
-    todo = [j for j in jobs(study) if (j.condition.name, j.participant) not in done]
-    total = len(study.conditions) * study.participants
-    print(f"study {study.name}: {len(study.conditions)} conditions x "
-          f"{study.participants} participants; {total - len(todo)} done, {len(todo)} to run",
-          file=sys.stderr)  # fmt: skip
-    try:
-        run_jobs(todo, data_dir, args.cluster, args.workers)
-    except KeyboardInterrupt:
-        print("interrupted: run the same command again to go on", file=sys.stderr)
-        return 130
-    rows = write_results(study, data_dir, out)
+        todo = [j for j in jobs(study) if (j.condition.name, j.participant) not in done]
+        total = len(study.conditions) * study.participants
+        print(f"study {study.name}: {len(study.conditions)} conditions x "
+              f"{study.participants} participants; {total - len(todo)} done, "
+              f"{len(todo)} to run", file=sys.stderr)  # fmt: skip
+        try:
+            run_jobs(todo, store, args.cluster, args.workers)
+        except KeyboardInterrupt:
+            print("interrupted: run the same command again to go on", file=sys.stderr)
+            return 130
+        rows = write_results(study, store, out)
     print(f"{len(rows)} sessions; wrote {out / 'sessions.csv'}, {out / 'summary.csv'} "
           f"and {out / 'summary.png'}")  # fmt: skip
     return 0 if len(rows) == total else 1
@@ -106,48 +108,50 @@ def _check_scenarios(study: Study) -> None:
 # -- running ----------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class JobDone:
-    job: Job
-    session_id: int
-    result: Result
-
-
-def run_jobs(todo: Sequence[Job], data_dir: str, cluster: str | None, workers: int) -> None:
-    """Runs each job's session: as Ray tasks on `cluster`, else in local processes."""
+def run_jobs(todo: Sequence[Job], store: SessionStore, cluster: str | None, workers: int) -> None:
+    """Runs each job's session, as Ray tasks on `cluster`, else in local processes; this
+    process alone stores each session as it comes back (app.sessions.study_runs)."""
     if not todo:
         return
-    work = [(job, data_dir) for job in todo]
+    plans = Plans()
     if cluster:
         from planner.search import cluster as ray_cluster
 
         ray_cluster.connect(cluster)
-        for done in ray_cluster.map_tasks(_run_job, work):
-            _report(done)
+        for run in ray_cluster.as_completed_tasks(_run_job, todo):
+            _keep(store, run, plans)
         return
     with ProcessPoolExecutor(
         max_workers=min(workers or mp.cpu_count(), len(todo)),
         mp_context=mp.get_context("fork"),
         initializer=_die_with_parent,
     ) as pool:
-        futures = [pool.submit(_run_job, item) for item in work]
+        futures = [pool.submit(_run_job, job) for job in todo]
+        kept: set[Future[SessionRun]] = set()
         try:
             for future in as_completed(futures):
-                _report(future.result())
+                kept.add(future)
+                _keep(store, future.result(), plans)
         except KeyboardInterrupt:
-            # The running sessions stop on the same Ctrl-C; the waiting ones never start.
+            # The running sessions stop on the same Ctrl-C (as interrupted) and come
+            # back; the waiting ones never start.
             pool.shutdown(wait=True, cancel_futures=True)
+            for future in futures:
+                if future not in kept and future.done() and not future.cancelled() \
+                        and future.exception() is None:
+                    _keep(store, future.result(), plans)
             raise
 
 
-def _report(done: JobDone) -> None:
-    print(f"  {done.job.condition.name} participant {done.job.participant}: "
-          f"session {done.session_id} {done.result}", file=sys.stderr, flush=True)  # fmt: skip
+def _keep(store: SessionStore, run: SessionRun, plans: Plans) -> None:
+    session_id = store_run(store, run, plans)
+    print(f"  {run.condition} participant {run.participant}: "
+          f"session {session_id} {run.result}", file=sys.stderr, flush=True)  # fmt: skip
 
 
 def _die_with_parent() -> None:
-    """A worker ends when the study's process does, even by SIGKILL: its session is then
-    left to be marked interrupted, never finished behind a run that resumes it."""
+    """A worker ends when the study's process does, even by SIGKILL: nobody is left
+    to store its session, which a resumed run runs again."""
     # Ctrl-C reaches the whole process group: the worker's executor stops on it.
     signal.signal(signal.SIGINT, signal.default_int_handler)
     if sys.platform.startswith("linux"):
@@ -157,11 +161,18 @@ def _die_with_parent() -> None:
         ctypes.CDLL(None).prctl(pr_set_pdeathsig, signal.SIGKILL)
 
 
+@dataclass(frozen=True)
+class _Planned:
+    scenario: Scenario
+    plan: Plan
+    key: str  # the plan's key in a store (app.sessions.study_runs.plan_hash)
+
+
 # Plans by scenario text within one worker: a condition's participants share a plan.
-_PLANS: dict[str, tuple[Scenario, Plan]] = {}
+_PLANS: dict[str, _Planned] = {}
 
 
-def _plan(job: Job) -> tuple[Scenario, Plan]:
+def _plan(job: Job) -> _Planned:
     from planner.planning import plan_scenario
     from planner.scenario.loading import parse_scenario
     from planner.sweep import Variation, variants
@@ -173,7 +184,8 @@ def _plan(job: Job) -> tuple[Scenario, Plan]:
     text = variants(condition.scenario_name, text, settings)[0].text
     if text not in _PLANS:
         scenario = parse_scenario(text, str(condition.scenario))
-        _PLANS[text] = (scenario, plan_scenario(scenario, workers=1).plan)
+        plan = plan_scenario(scenario, workers=1).plan
+        _PLANS[text] = _Planned(scenario, plan, plan_hash(plan))
     return _PLANS[text]
 
 
@@ -216,65 +228,64 @@ def _reachable_parts(scenario: Scenario) -> list[str]:
     return [p.id for p in scenario.parts if p.region in within and p.kind != "top"]
 
 
-def _run_job(item: tuple[Job, str]) -> JobDone:
-    """One participant's session in one condition, tagged as it starts."""
+def _run_job(job: Job) -> SessionRun:
+    """One participant's session in one condition, in memory: the study's process
+    stores it. Its simulated clock starts at 0."""
     from app.execution.repair import Repairer
     from app.execution.retargeting import retargeter_for
     from app.execution.timing import SimulatedTimeline
     from app.execution.walker import Executor
     from app.sim.behaviours import MODELS, BehavingSource
 
-    job, data_dir = item
-    scenario, plan = _plan(job)
+    planned = _plan(job)
+    scenario, plan = planned.scenario, planned.plan
     channel = _channel(job, scenario, plan)
     model = MODELS[job.condition.behaviour]
     source = BehavingSource(channel.source, model, job.seed, _reachable_parts(scenario))
-    note = f"seed {job.seed}; study {job.study}: {job.condition.name} #{job.participant}"
-    with SessionStore(data_dir) as store:
-        ensure_table(store.db)
-        session_id = store.start(plan, note=note, clock="simulated")
-        tag(store.db, session_id, job.study, job.condition.name, job.participant)
-        executor = Executor(
-            plan,
-            source,
-            [store.recorder(session_id), *channel.listeners],
-            narrator=channel.narrator,
-            repairing=Repairer(scenario, store.add_plan).repair,
-            retarget=retargeter_for(scenario, plan),
-            timeline=SimulatedTimeline(job.seed, model.human(scenario.human)),
-        )
-        result: Result
-        try:
-            result = executor.run()
-        except KeyboardInterrupt:
-            result = "interrupted"
-        store.finish(session_id, result, ended=executor.timeline.now())
+    repairs = PlanKeeper()
+    executor = Executor(
+        plan,
+        source,
+        channel.listeners,
+        narrator=channel.narrator,
+        repairing=Repairer(scenario, repairs.keep).repair,
+        retarget=retargeter_for(scenario, plan),
+        timeline=SimulatedTimeline(job.seed, model.human(scenario.human), origin=0.0),
+    )
+    result: Result
+    try:
+        result = executor.run()
+    except KeyboardInterrupt:
+        result = "interrupted"
     channel.close()
-    return JobDone(job, session_id, result)
+    note = f"seed {job.seed}; study {job.study}: {job.condition.name} #{job.participant}"
+    # A motion's path and a repair's plan are not stored with the event: not sent.
+    events = tuple(replace(e, motion=None, plan=None) for e in executor.events)
+    return SessionRun(job.study, job.condition.name, job.participant, note, plan,
+                      planned.key, tuple(repairs.plans), events, result)  # fmt: skip
 
 
 # -- results ----------------------------------------------------------------------------
 
 
-def write_results(study: Study, data_dir: str, out: Path) -> list[Row]:
+def write_results(study: Study, store: SessionStore, out: Path) -> list[Row]:
     """sessions.csv, summary.csv and summary.png of the study's counted sessions."""
-    with SessionStore(data_dir) as store:
-        ensure_table(store.db)
-        counted = finished(study_sessions(store.db, study.name))
-        rows: list[Row] = []
-        keys: tuple[str, ...] = ()
-        for job in jobs(study):
-            session = counted.get((job.condition.name, job.participant))
-            if session is None:
-                continue
-            keys, metrics = session_metrics(store.events(session.session_id))
-            rows.append({**_tags(job, session), **metrics})
+    counted = finished(study_sessions(store.db, study.name))
+    rows: list[Row] = []
+    keys: tuple[str, ...] = ()
+    for job in jobs(study):
+        session = counted.get((job.condition.name, job.participant))
+        if session is None:
+            continue
+        keys, metrics = session_metrics(store.events(session.session_id), session.clock)
+        rows.append({**_tags(job, session), **metrics})
     out.mkdir(parents=True, exist_ok=True)
     _write_csv(out / "sessions.csv", [*TAG_COLUMNS, *keys], rows)
     summary = condition_summary([c.name for c in study.conditions], rows, keys)
     _write_csv(out / "summary.csv", SUMMARY_COLUMNS, summary)
     ids = [int(i) for r in rows if isinstance(i := r["session_id"], int)]
-    plot_summary([c.name for c in study.conditions], summary, keys, out / "summary.png", ids)
+    plot_summary([c.name for c in study.conditions], summary, keys, out / "summary.png", ids,
+                 rows=rows)  # fmt: skip
     return rows
 
 
@@ -288,12 +299,14 @@ def _tags(job: Job, session: StudySession) -> Row:
     }  # fmt: skip
 
 
-def session_metrics(events: Sequence[ExecutionEvent]) -> tuple[tuple[str, ...], Row]:
+def session_metrics(
+    events: Sequence[ExecutionEvent], clock: str | None
+) -> tuple[tuple[str, ...], Row]:
     """The session's metrics (app.sessions.metrics) and their column names."""
     from app.sessions.metrics import METRIC_KEYS
     from app.sessions.metrics import session_metrics as measure
 
-    return METRIC_KEYS, measure(events).row()
+    return METRIC_KEYS, measure(events, clock=clock).row()
 
 
 def _write_csv(path: Path, columns: Sequence[str], rows: Sequence[Row]) -> None:

@@ -8,8 +8,9 @@ participant meets every condition (a within-subject design).
 
 Each session a study runs is tagged in the session store's table
 `study_sessions(session_id, study, condition, participant)`, created when a
-store is opened for a study (so an older store gets it). A tag is written as
-the session starts, so a run killed half-way leaves its session tagged and
+store is opened for a study (so an older store gets it). The study's process
+writes a session whole once it has run (app.sessions.study_runs) and tags it
+as it starts writing, so a run killed half-way leaves that session tagged and
 marked "interrupted" by the store: such a session is stale, run again, and
 not counted; one that ended at a final result is not run again.
 """
@@ -24,11 +25,16 @@ import tomllib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO, Literal, cast, get_args
+from typing import Any, Literal, cast, get_args
 
 from sqlite_utils import Database
 
 from app.execution.events import Result
+
+# The figure's own module; named here too, where the dashboard's review finds them.
+from app.sessions.study_figure import FIGURE_METRICS as FIGURE_METRICS
+from app.sessions.study_figure import figure_metrics as figure_metrics
+from app.sessions.study_figure import plot_summary as plot_summary
 
 Channel = Literal["clicks", "camera", "voice"]
 CHANNELS: tuple[Channel, ...] = get_args(Channel)
@@ -209,13 +215,14 @@ def _scenario_file(text: str, study_path: Path) -> Path:
 
 @dataclass(frozen=True)
 class StudySession:
-    """A tagged session, with how it ended (None while it runs)."""
+    """A tagged session, with how it ended (None while it runs) and its clock."""
 
     session_id: int
     condition: str
     participant: int
     result: Result | None
     started: float
+    clock: str | None = None
 
 
 def ensure_table(db: Database) -> None:
@@ -242,8 +249,11 @@ def tag(db: Database, session_id: int, study: str, condition: str, participant: 
 
 def study_sessions(db: Database, study: str) -> list[StudySession]:
     """The study's tagged sessions, oldest first (stale ones included)."""
+    # A store opened read-only may be older than sessions' clocks: none then.
+    columns = {row[1] for row in db.execute("pragma table_info(sessions)")}
+    clock = "s.clock" if "clock" in columns else "null"
     rows = db.execute(
-        "select t.session_id, t.condition, t.participant, s.result, s.started "
+        f"select t.session_id, t.condition, t.participant, s.result, s.started, {clock} "
         "from study_sessions t join sessions s on s.id = t.session_id "
         "where t.study = ? order by s.started, s.id",
         [study],
@@ -297,10 +307,6 @@ def summarise(values: Sequence[float | int | None]) -> Summary:
 
 Row = dict[str, float | int | str | None]
 SUMMARY_KEYS = ("condition", "metric", "n", "mean", "sd", "ci95_low", "ci95_high")
-# What a study's figure shows: the task time and Hoffman's fluency metrics, each as
-# a share of the task time (so tasks of different lengths compare).
-FIGURE_METRICS = ("task_s", "human_idle_share", "robot_idle_share", "concurrent_share",
-                  "functional_delay_share")  # fmt: skip
 
 
 def study_names(db: Database) -> list[str]:
@@ -331,60 +337,3 @@ def condition_summary(
 
 def _round(value: float | None) -> float | None:
     return None if value is None else round(value, 4)
-
-
-def figure_metrics(keys: Sequence[str]) -> list[str]:
-    """The figure's metrics among `keys`; the first few of them if none is known."""
-    return [k for k in FIGURE_METRICS if k in keys] or list(keys[:6])
-
-
-def plot_summary(
-    conditions: Sequence[str],
-    summary: Sequence[Row],
-    keys: Sequence[str],
-    target: Path | BinaryIO,
-    sessions: Sequence[int] = (),
-    *,
-    columns: int = 3,
-    dpi: int = 100,
-) -> None:
-    """One panel per shown metric: each condition's mean with its 95 % interval, as
-    a PNG to `target`, up to `columns` panels a line. The PNG's `Sessions` text names
-    the sessions it summarises, so it can be checked."""
-    import matplotlib
-
-    matplotlib.use("Agg")  # before pyplot: files only, never a window
-    import matplotlib.pyplot as plt
-
-    shown = [k for k in figure_metrics(keys) if any(r["metric"] == k for r in summary)]
-    columns = min(columns, max(1, len(shown)))
-    lines = -(-max(1, len(shown)) // columns)
-    fig, axes = plt.subplots(
-        lines, columns, figsize=(3 + 3.5 * columns, 1 + (0.3 * len(conditions) + 1.2) * lines),
-        squeeze=False,
-    )  # fmt: skip
-    ys = list(range(len(conditions)))
-    for i, (ax, key) in enumerate(zip(axes.flat, shown, strict=False)):
-        by_condition = {r["condition"]: r for r in summary if r["metric"] == key}
-        means = [_number(by_condition.get(c, {}).get("mean")) for c in conditions]
-        errors = [[m - _number(by_condition.get(c, {}).get("ci95_low"), m) for c, m in
-                   zip(conditions, means, strict=True)],
-                  [_number(by_condition.get(c, {}).get("ci95_high"), m) - m for c, m in
-                   zip(conditions, means, strict=True)]]  # fmt: skip
-        ax.barh(ys, means, xerr=errors, capsize=3, color="#7aa6c2")
-        ax.set_yticks(ys, conditions if i % columns == 0 else [""] * len(conditions))
-        ax.invert_yaxis()
-        ax.set_title(key)
-        ax.grid(axis="x", alpha=0.3)
-    for ax in list(axes.flat)[len(shown) :]:
-        ax.axis("off")
-    fig.suptitle("mean per condition, 95 % interval")
-    fig.tight_layout()
-    ids = ",".join(str(i) for i in sorted(sessions))
-    fig.savefig(target, format="png", dpi=dpi,
-                metadata={"Title": "tandem study", "Sessions": ids})  # fmt: skip
-    plt.close(fig)
-
-
-def _number(value: object, default: float = 0.0) -> float:
-    return float(value) if isinstance(value, int | float) else default

@@ -9,12 +9,13 @@ through Ray Client to a remote head.
   many states (the multi-shot pattern of the local worker processes); the
   frontier goes to the least busy actor and `hcp.ConditionalPlanner` integrates
   results in request order, so the plan does not depend on the number of actors.
-- `map_tasks`: one Ray task per item (sweeps), results in the items' order.
+- `map_tasks`: one Ray task per item (sweeps), results in the items' order;
+  `as_completed_tasks` yields them as each task ends (studies store each at once).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -89,6 +90,21 @@ def map_tasks(function: Callable[[T], R], items: Sequence[T]) -> list[R]:
     ray = _ray()
     remote = ray.remote(num_cpus=1)(function)
     return list(ray.get([remote.remote(item) for item in items]))
+
+
+def as_completed_tasks(function: Callable[[T], R], items: Sequence[T]) -> Iterator[R]:
+    """`function` on every item as a Ray task (one CPU each); each result as its task
+    ends. Left early (an error, Ctrl-C), the tasks not yet ended are cancelled."""
+    ray = _ray()
+    remote = ray.remote(num_cpus=1)(function)
+    waiting = [remote.remote(item) for item in items]
+    try:
+        while waiting:
+            ended, waiting = ray.wait(waiting, num_returns=1)
+            yield ray.get(ended[0])
+    finally:
+        for ref in waiting:
+            ray.cancel(ref, force=True)
 
 
 class _Actor:
