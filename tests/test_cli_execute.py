@@ -262,3 +262,29 @@ def test_export_round_trip(plan_file: Path, env: dict[str, str], tmp_path: Path)
     path = [(e["node"], e["outcome"]) for e in exported["events"]
             if is_step(exported_event(e))]  # fmt: skip
     assert is_plan_path(Plan.from_json(exported["plan"]), path)
+
+
+def test_a_headless_run_is_on_the_simulated_clock_with_true_lengths(
+    plan_file: Path, env: dict[str, str]
+) -> None:
+    """Random and piped answers are no person: the session is simulated, its motions
+    last their time-parameterised duration, the simulated human acts, and the session
+    ends with its last event."""
+    from app.execution.timing import motion_seconds
+
+    plan = default_plan()
+    for args, stdin in ((("--responses", "random", "--seed", "3"), None), ((), "1\n" * 200)):
+        done = tandem("execute", str(plan_file), *args, env=env, stdin=stdin)
+        assert done.returncode == 0, done.stderr
+        sid = session_id(done.stdout)
+        with SessionStore(env["TANDEM_DATA_DIR"], read_only=True) as store:
+            record, events = store.get(sid), store.events(sid)
+        assert record.clock == "simulated"
+        motions = [e for e in events if e.kind == "actuation"]
+        assert motions
+        for event in motions:
+            length = event.end - event.start  # type: ignore[operator]
+            assert length >= 0.3
+            assert length == pytest.approx(motion_seconds(plan.nodes[event.node].motion))
+        assert any(e.kind == "human" and e.source == "simulated" for e in events)
+        assert record.ended == max(e.end for e in events)  # type: ignore[type-var]
