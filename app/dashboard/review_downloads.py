@@ -19,6 +19,21 @@ from app.dashboard.session_files import session_file as make_file
 from app.dashboard.stage import Stage
 from app.sessions.store import SessionRecord, SessionStore
 
+# viser shows a file sent for download as a link in a notification 20em wide, its
+# label cut where it overflows ("tandem-session-1.csv (2"): a notification holding
+# a download is made wider, and its label wraps (after the name, before the size)
+# instead of being cut.
+WHOLE_NAMES = (
+    "<style>"
+    ".mantine-Notifications-root:has(a[download])"
+    "{--notifications-container-width:28em !important}"
+    ".mantine-Notification-description a[download] .mantine-Button-root"
+    "{height:auto;min-height:var(--button-height);padding-block:0.3em}"
+    ".mantine-Notification-description a[download] .mantine-Button-label"
+    "{white-space:normal;overflow:visible;overflow-wrap:anywhere;text-align:left}"
+    "</style>"
+)
+
 
 class SessionDownloads:
     """One button per file format; `opened` says which session the review shows."""
@@ -33,6 +48,7 @@ class SessionDownloads:
         self.stage = stage
         self.store = store
         self.opened = opened
+        gui.add_html(WHOLE_NAMES)
         for kind in FILE_FORMATS:
             gui.add_button(f"Export {kind.upper()}").on_click(self._sender(kind))
 
