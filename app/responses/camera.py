@@ -7,6 +7,12 @@ video file, an image folder) with a calibration's intrinsics, or the default of
 its image size (app/sources/camera_input.py).
 Nodes the camera cannot answer (questions, or no stable fit) fall back.
 
+A webcam keeps watching in its own thread (a `LiveCamera`), and the human's
+actions it sees are kept as `human` events (app/sources/camera_human.py); so does
+the simulated camera played in real time (`real_time`), whose simulated human
+then moves parts over a person's time. A video file or an image folder is read
+when the camera looks, as fast as it decodes: its frames are no clock.
+
 `LiveAnswers` is the same for the dashboard's live camera: each execution gets
 a camera source on the running camera's views, and with the simulated camera a
 simulated human who acts out the clicks before the camera looks.
@@ -19,13 +25,15 @@ from dataclasses import dataclass
 
 from app.execution.events import ExecutionEvent, OutcomeSource
 from app.responses.sim_camera import open_sim_camera, sim_camera
+from app.sim.hands import PacedHands
 from app.sim.human import DirectedHuman, SimulatedHuman, SimulatedWorld
 from app.sources.bench_layout import bench_layout
-from app.sources.camera import CameraSource
+from app.sources.camera import BeforeLook, CameraSource
 from app.sources.camera_feed import PulledFeed
+from app.sources.camera_human import HumanActionWatch
 from app.sources.camera_input import CameraInput, open_real_camera
 from app.sources.live_camera import LiveCamera, live_source
-from perception.frames import FrameSource, SourceError
+from perception.frames import FrameSource, SourceError, WebcamSource
 from perception.intrinsics import CameraIntrinsics
 from perception.pipeline import BenchPerception
 from planner.feasibility.scene import part_boxes
@@ -58,26 +66,62 @@ class CameraResponses:
     source: CameraSource
     listeners: list[Listener]
     frames: FrameSource
+    live: LiveCamera | None = None  # the camera that keeps watching, if it does
+    watch: HumanActionWatch | None = None  # the human's actions it keeps
+    human: SimulatedHuman | None = None  # with the simulated camera
 
     def close(self) -> None:
-        self.frames.close()
+        if self.live is not None:
+            self.live.stop()  # closes the frames too
+        else:
+            self.frames.close()
+        if self.human is not None and self.human.world.hands is not None:
+            self.human.world.hands.close()
+
+
+def watched(
+    live: LiveCamera, before: BeforeLook | None = None
+) -> tuple[CameraSource, HumanActionWatch]:
+    """The camera source of one execution on `live`, whose human actions it sees are
+    kept as `human` events (add `watch.on_event` to the execution's listeners)."""
+    watch = HumanActionWatch(live)
+    return live_source(live, before, watch), watch
 
 
 def camera_responses(
-    spec: str, scenario: Scenario, plan: Plan, seed: int | None,
+    spec: str,
+    scenario: Scenario,
+    plan: Plan,
+    seed: int | None,
     calibration: CameraIntrinsics | None = None,
+    *,
+    real_time: bool = False,
 ) -> CameraResponses:
-    """The camera source for `camera:SOURCE`; `SourceError` if the source cannot be opened."""
+    """The camera source for `camera:SOURCE`; `SourceError` if the source cannot be
+    opened. `real_time` plays the simulated camera as a webcam is read (for a run on
+    the wall clock): in its own thread at 30 frames a second, while the simulated
+    human's hands take their time."""
     layout = bench_layout(scenario)
     if spec != "sim":
         real = open_real_camera(spec, calibration)
+        if isinstance(real.frames, WebcamSource):
+            live = LiveCamera(real.frames, real.intrinsics, scenario, name=spec, pace_fps=None)
+            source, watch = watched(live.start())
+            return CameraResponses(source, [watch.on_event], real.frames, live, watch)
         feed = PulledFeed(real.frames, BenchPerception(real.intrinsics, layout))
         return CameraResponses(CameraSource(feed), [], real.frames)
     camera = sim_camera(scenario)
+    if real_time:
+        live = LiveCamera(camera, camera.camera.intrinsics, scenario, name="sim", simulated=camera)
+        hands = PacedHands(live, seed)
+        world = SimulatedWorld(part_boxes(scenario), layout, live, hands)
+        human = SimulatedHuman(plan, world, seed)
+        source, watch = watched(live.start(), human)
+        return CameraResponses(source, [human.on_event, watch.on_event], camera, live, watch, human)
     world = SimulatedWorld(part_boxes(scenario), layout, camera)
     human = SimulatedHuman(plan, world, seed)
     feed = PulledFeed(camera, BenchPerception(camera.camera.intrinsics, layout))
-    return CameraResponses(CameraSource(feed, human), [human.on_event], camera)
+    return CameraResponses(CameraSource(feed, human), [human.on_event], camera, human=human)
 
 
 class LiveAnswers:
@@ -99,7 +143,9 @@ class LiveAnswers:
         (the clicks) says what a simulated human does."""
         live = self.live
         if live.simulated is None:
-            return live_source(live), []
+            source, watch = watched(live)
+            return source, [watch.on_event]
         world = SimulatedWorld(part_boxes(live.scenario), live.layout, live)
         human = self.human(plan, world)
-        return live_source(live, DirectedHuman(human, intent)), [human.on_event]
+        source, watch = watched(live, DirectedHuman(human, intent))
+        return source, [human.on_event, watch.on_event]

@@ -20,12 +20,14 @@ from __future__ import annotations
 
 import math
 import random
-from collections.abc import Sequence
+import threading
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
 from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource
 from app.execution.world import place_parts
+from app.sim.hands import HandAction, PacedHands
 from perception.layout import BenchLayout
 from planner.feasibility.scene import PartBox
 from planner.plan.model import Plan, PlanNode
@@ -62,17 +64,26 @@ class PartMover(Protocol):
 
 class SimulatedWorld:
     """Where every part is: resting where the scenario puts it, lifted by an arm,
-    in the human's hands, or attached at a slot of another part."""
+    in the human's hands, or attached at a slot of another part. With `hands`, what
+    the human does moves the parts in the camera's scene over a person's time (the
+    robot's changes are drawn at once); without, at once too."""
 
     def __init__(
         self,
         boxes: dict[str, PartBox],
         layout: BenchLayout,
         camera: PartMover | None = None,
+        hands: PacedHands | None = None,
     ) -> None:
         self.boxes = boxes
         self.layout = layout
         self.camera = camera
+        self.hands = hands
+        self._drawing = threading.RLock()  # the shown poses: the hands' thread draws too
+        # Parts the hands are moving or will move (how many moves each), and where
+        # each will be once they are done.
+        self._in_hands: dict[str, int] = {}
+        self._planned: dict[str, tuple[Vec3, float]] = {}
         self.robot: dict[str, str] = {}  # arm -> part
         self.human: list[str] = []  # parts in the human's hands, in the order taken
         self.attached: dict[str, tuple[str, str]] = {}  # part -> (onto, slot)
@@ -139,18 +150,23 @@ class SimulatedWorld:
         if part not in self.human:
             self.human.append(part)
         self.attached.pop(part, None)
-        self.sync()
+        self._handled("take", part)
 
     def human_put_down(self, part: str) -> None:
         if part in self.human:
             self.human.remove(part)
-        self.sync()
+        self._handled("putdown", part)
 
     def human_attach(self, part: str, onto: str, slot: str) -> None:
         if part in self.human:
             self.human.remove(part)
         self.attached[part] = (onto, slot)
-        self.sync()
+        self._handled("attach", part)
+
+    def settle(self) -> None:
+        """Until the human's hands have finished what they were doing."""
+        if self.hands is not None:
+            self.hands.wait()
 
     # --- drawing -----------------------------------------------------------------
     def poses(self) -> dict[str, tuple[Vec3, float]]:
@@ -184,13 +200,41 @@ class SimulatedWorld:
         return box.yaw if outwards >= 0 else box.yaw + math.pi
 
     def sync(self) -> None:
-        """Moves the parts whose pose changed in the camera's scene."""
+        """Moves the parts whose pose changed in the camera's scene (not those the
+        human's hands are moving: they arrive where the world then has them)."""
         if self.camera is None:
             return
-        for pid, pose in self.poses().items():
-            if self._shown.get(pid) != pose:
-                self.camera.move(pid, pose[0], pose[1])
-                self._shown[pid] = pose
+        with self._drawing:
+            for pid, pose in self.poses().items():
+                if pid not in self._in_hands and self._shown.get(pid) != pose:
+                    self.camera.move(pid, pose[0], pose[1])
+                    self._shown[pid] = pose
+
+    def _handled(self, action: HandAction, part: str) -> None:
+        """The human moved `part` (and what is attached to it): drawn over the hands'
+        time when they take it, else at once."""
+        if self.hands is None or self.camera is None:
+            self.sync()
+            return
+        with self._drawing:
+            paths = {}
+            for pid, pose in self.poses().items():
+                was = self._planned.get(pid, self._shown.get(pid))
+                if was is not None and was != pose:
+                    paths[pid] = (was, pose)  # from where the moves before leave it
+                    self._planned[pid] = pose
+                    self._in_hands[pid] = self._in_hands.get(pid, 0) + 1
+            if paths:
+                self.hands.submit(action, part, paths, self._arrived)
+
+    def _arrived(self, shown: Mapping[str, tuple[Vec3, float]]) -> None:
+        with self._drawing:
+            self._shown.update(shown)
+            for pid in shown:
+                self._in_hands[pid] -= 1
+                if not self._in_hands[pid]:
+                    del self._in_hands[pid], self._planned[pid]
+        self.sync()  # the world may have changed on the way (the robot went on)
 
 
 @dataclass(frozen=True)
@@ -245,6 +289,7 @@ class SimulatedHuman:
             label = self._decide(node_id, node, options)
         finally:
             self._wanted = None
+        self.world.settle()  # the camera looks once the hands are done
         if label is None:
             return None
         self.did[node_id] = label

@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from app.execution.events import AnswerSource, Node, Outcome, describe
+from app.execution.events import AnswerSource, ExecutionControls, Node, Outcome, describe
 from app.execution.evidence import CameraDecision, CameraReading, Evidence, Truth
 from app.execution.surprises import Surprise
 from app.sources.camera_feed import View, ViewFeed, settle_frames
@@ -57,6 +57,15 @@ class BeforeLook(Protocol):
         """The outcome that really happened at `node_id`, when known (it is kept with
         the camera's answer, so agreement is counted from the store)."""
         ...
+
+
+class ExecutionWatch(Protocol):
+    """Whoever watches the execution beside the camera's answers (the human's actions a
+    live camera sees): handed the execution while it runs."""
+
+    def attach(self, controls: ExecutionControls) -> None: ...
+
+    def detach(self, controls: ExecutionControls) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -183,6 +192,8 @@ class CameraSource:
     tracker's and the estimate's hysteresis: `settle_frames`), then until the
     estimate is stable; it gives up after `max_frames` views (None: no limit) or
     `timeout_s` seconds, or at once when `interrupt()` is called (an abort).
+    `watch`, when given, is handed the execution the source answers for (the walker
+    attaches and detaches the source).
     """
 
     name: AnswerSource = "camera"
@@ -195,9 +206,11 @@ class CameraSource:
         min_frames: int | None = None,
         max_frames: int | None = 120,
         timeout_s: float = 10.0,
+        watch: ExecutionWatch | None = None,
     ) -> None:
         self.feed = feed
         self.before = before
+        self.watch = watch
         self.min_frames = settle_frames(feed.perception) if min_frames is None else min_frames
         self.max_frames = max_frames
         self.timeout_s = timeout_s
@@ -206,6 +219,14 @@ class CameraSource:
         self.observations: list[CameraObservation] = []
         self._surprised: set[tuple[str, Surprise]] = set()
         self._interrupted = threading.Event()
+
+    def attach(self, controls: ExecutionControls) -> None:
+        if self.watch is not None:
+            self.watch.attach(controls)
+
+    def detach(self, controls: ExecutionControls) -> None:
+        if self.watch is not None:
+            self.watch.detach(controls)
 
     def interrupt(self) -> None:
         """Ends a look under way, and every later one, without an answer (an abort);

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from app.sources.bench_layout import bench_layout
-from app.sources.camera import BeforeLook, CameraSource
+from app.sources.camera import BeforeLook, CameraSource, ExecutionWatch
 from app.sources.camera_feed import View
 from perception.frames import Frame, FrameSource
 from perception.intrinsics import CameraIntrinsics
@@ -51,6 +51,11 @@ class LiveView:
     seconds: float  # perception's time on this frame (decode, locate, track, estimate)
     fps: float  # frames processed per second, over the last second or so
     at: float  # time.monotonic() when it was ready
+    # When the frame was taken, on the wall clock (epoch seconds): just before the read
+    # that returned it. A camera's read waits for its next frame and the simulated
+    # camera draws the bench as it is then, so the picture shows that moment (a
+    # real camera's exposure is up to a frame's interval before).
+    captured: float = 0.0
 
 
 class LiveCamera:
@@ -76,6 +81,8 @@ class LiveCamera:
         self.simulated = simulated
         self.pace_fps = pace_fps
         self.on_view = on_view
+        # Whoever else follows every view (a watch of the human's actions), in this thread.
+        self.watchers: list[Callable[[LiveView], None]] = []
         self.perception = BenchPerception(intrinsics, self.layout)
         self.ended: str | None = None  # why the frames stopped, once they have
         self._lock = threading.Lock()  # the frame source: read here, moved by the executor
@@ -140,24 +147,29 @@ class LiveCamera:
         next_at = time.monotonic()
         try:
             while not self._stop.is_set():
+                # Only the read holds the scene: a simulated part moved meanwhile is
+                # drawn in the next frame, not held up by perception's time.
                 with self._lock:
+                    captured = time.time()
                     frame = self.frames.read()
-                    if frame is None:
-                        self.ended = "the frames ended"
-                        break
-                    start = time.perf_counter()
-                    perceived = self.perception.process(frame)
-                    seconds = time.perf_counter() - start
+                if frame is None:
+                    self.ended = "the frames ended"
+                    break
+                start = time.perf_counter()
+                perceived = self.perception.process(frame)
+                seconds = time.perf_counter() - start
                 now = time.monotonic()
                 stamps = [t for t in stamps if now - t < 1.0] + [now]
                 seq += 1
                 fps = (len(stamps) - 1) / (stamps[-1] - stamps[0]) if len(stamps) > 1 else 0.0
-                view = LiveView(seq, frame, perceived, seconds, fps, now)
+                view = LiveView(seq, frame, perceived, seconds, fps, now, captured)
                 with self._cond:
                     self._latest = view
                     self._cond.notify_all()
                 if self.on_view is not None:
                     self.on_view(view)
+                for watcher in list(self.watchers):
+                    watcher(view)
                 if period:
                     next_at = max(next_at + period, time.monotonic() - period)
                     self._stop.wait(max(0.0, next_at - time.monotonic()))
@@ -197,7 +209,12 @@ class LiveFeed:
         return View(view.frame, view.perceived.world)
 
 
-def live_source(live: LiveCamera, before: BeforeLook | None = None) -> CameraSource:
+def live_source(
+    live: LiveCamera, before: BeforeLook | None = None, watch: ExecutionWatch | None = None
+) -> CameraSource:
     """The camera source of one execution on `live`; `before` acts at each sensing
-    node before the camera looks (a simulated human acting out a click)."""
-    return CameraSource(LiveFeed(live), before, max_frames=None, timeout_s=LIVE_TIMEOUT_S)
+    node before the camera looks (a simulated human acting out a click); `watch` is
+    handed the execution (app.sources.camera_human keeps the human's actions seen)."""
+    return CameraSource(
+        LiveFeed(live), before, max_frames=None, timeout_s=LIVE_TIMEOUT_S, watch=watch
+    )

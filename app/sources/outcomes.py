@@ -19,7 +19,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Protocol
 
-from app.execution.events import AnswerSource, Node, Outcome, OutcomeError, OutcomeSource, describe
+from app.execution.events import (
+    AnswerSource,
+    ExecutionControls,
+    Node,
+    Outcome,
+    OutcomeError,
+    OutcomeSource,
+    describe,
+)
 from app.execution.evidence import Clicked, Evidence
 from app.execution.surprises import SurpriseError, parse_surprise
 from planner.vocabulary import (
@@ -329,6 +337,20 @@ class FallbackSource:
             interrupt = getattr(source, "interrupt", None)
             if callable(interrupt):
                 interrupt()
+
+    # Both are handed the execution the walker attaches (a live camera keeps the
+    # human's actions it sees), as if each answered alone.
+    def attach(self, controls: ExecutionControls) -> None:
+        for source in (self.primary, self.fallback):
+            attach = getattr(source, "attach", None)
+            if callable(attach):
+                attach(controls)
+
+    def detach(self, controls: ExecutionControls) -> None:
+        for source in (self.primary, self.fallback):
+            detach = getattr(source, "detach", None)
+            if callable(detach):
+                detach(controls)
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         reason: str
