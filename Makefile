@@ -46,6 +46,7 @@ bench: $(STAMP) system
 	$(BIN)/tandem bench
 	$(BIN)/python -m app.benchmark.scaling
 	$(BIN)/python -m app.benchmark.store_scale
+	$(BIN)/python -m app.benchmark.metrics_scale
 	$(BIN)/python -m app.benchmark.study_time
 	$(BIN)/python -m app.benchmark.dashboard_benchmark
 	$(BIN)/python -m app.benchmark.page_speed

@@ -1,8 +1,10 @@
 """A session's measures: Hoffman's fluency metrics, questions, repairs, agreement.
 
 Each measure is checked on a hand-built session whose values are worked out
-below; a stored session of the old format gives counts and no times; the CLI
-writes them as CSV and JSON, and says in one line when a study is unknown.
+below (tests/test_hoffman_metrics.py has another); a stored session of the old
+format gives counts and no times; the CLI writes them as CSV and JSON, says in
+one line when a study is unknown, and leaves out a study's interrupted and
+unfinished sessions, saying how many.
 """
 
 from __future__ import annotations
@@ -22,6 +24,8 @@ from app.execution.timing import SimulatedTimeline
 from app.execution.walker import Executor
 from app.sessions.metrics import METRIC_KEYS, session_metrics
 from app.sessions.store import SessionStore
+from app.sessions.stored_metrics import stored_metrics
+from app.sessions.studies import ensure_table, tag
 from app.sources.outcomes import RandomSource
 from planner.vocabulary import (
     AskHelp,
@@ -133,9 +137,10 @@ def test_the_row_is_flat_stable_and_csv_ready() -> None:
 def test_an_old_session_gives_counts_and_no_times(tmp_path: Path) -> None:
     shutil.copy(OLD_STORE, tmp_path / "sessions.db")
     with SessionStore(tmp_path, read_only=True) as store:
-        measured = {
-            s.note: session_metrics(store.events(s.id), s.clock) for s in store.list_sessions()
-        }
+        sessions = store.list_sessions()
+        measured = {s.note: session_metrics(store.events(s.id), s.clock) for s in sessions}
+        # Read from the rows of a store older than the events' times: the same.
+        assert stored_metrics(store, sessions) == list(measured.values())
     for m in measured.values():
         assert not m.timed and m.events > 0
         times = [k for k in METRIC_KEYS if k.endswith("_s") or k.endswith("_share")]
@@ -193,3 +198,42 @@ def test_the_cli_writes_csv_and_json_and_refuses_an_unknown_study(tmp_path: Path
     refused = tandem("--study", "pilot")
     assert refused.returncode == 2
     assert refused.stderr.strip().count("\n") == 0 and "no such study" in refused.stderr
+
+
+def test_a_study_leaves_out_its_interrupted_and_unfinished_sessions(tmp_path: Path) -> None:
+    plan = default_plan()
+    ended: dict[str, int] = {}
+    with SessionStore(tmp_path) as store:
+        ensure_table(store.db)
+        # Still running: owned by this process, which is alive.
+        for k, result in enumerate(("goal", "interrupted", "running", "aborted", "other")):
+            session = store.start(plan, clock="simulated")
+            timeline = SimulatedTimeline(k, origin=1_000.0 * k)
+            Executor(plan, RandomSource(k), [store.recorder(session)], timeline=timeline).run()
+            if result != "running":
+                store.finish(session, "goal" if result == "other" else result)  # type: ignore[arg-type]
+            study = "pilot-2" if result == "other" else "pilot"
+            tag(store.db, session, study, "default", k + 1)
+            ended[result] = session
+        records = {s.id: s for s in store.list_sessions()}
+        expected = [
+            session_metrics(store.events(ended[r]), "simulated").row() for r in ("goal", "aborted")
+        ]
+    assert records[ended["running"]].result is None
+    command = [*tandem_command(), "sessions", "metrics", "--study", "pilot", "--json",
+               "--data-dir", str(tmp_path)]  # fmt: skip
+    done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    rows = json.loads(done.stdout)
+    assert [(r["session"], r["result"]) for r in rows] == [
+        (ended["goal"], "goal"), (ended["aborted"], "aborted"),
+    ]  # fmt: skip
+    assert [{k: r[k] for k in METRIC_KEYS} for r in rows] == expected
+    said = done.stderr.strip()
+    assert said.count("\n") == 0 and "pilot" in said
+    assert said.startswith("2 interrupted or unfinished")
+    # Nothing left out: nothing said.
+    other = subprocess.run([*command[:-4], "pilot-2", *command[-3:]], cwd=ROOT,
+                           capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert other.returncode == 0 and other.stderr == ""
+    assert [r["session"] for r in json.loads(other.stdout)] == [ended["other"]]

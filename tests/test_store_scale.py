@@ -4,7 +4,10 @@ A store of 2,000 sessions copied from real executions (the benchmark's builder,
 `app.benchmark.store_scale`, which times 10,000) lists and filters exactly the
 sessions a plain filter over all of them finds, and every listing SQLite runs
 walks an index instead of reading the whole table or sorting it; an old store
-gets the indexes when it is opened.
+gets the indexes when it is opened. The measures read from the rows of all its
+sessions at once (`app.sessions.stored_metrics`, what `tandem sessions metrics`
+runs, timed by `app.benchmark.metrics_scale`) are those of `session_metrics` on
+each session's whole events.
 """
 
 from __future__ import annotations
@@ -17,9 +20,12 @@ from pathlib import Path
 
 import pytest
 
+from app.benchmark import metrics_scale
 from app.benchmark.store_scale import SCENARIOS, build_store, main, real_executions
 from app.sessions.database import INDEXES
+from app.sessions.metrics import session_metrics
 from app.sessions.store import SessionRecord, SessionStore
+from app.sessions.stored_metrics import stored_metrics
 from planner.resources import scenario_path
 from planner.scenario.loading import load_scenario
 from tests.plan_fixtures import default_plan
@@ -140,3 +146,30 @@ def test_the_benchmark_prints_its_table(capsys: pytest.CaptureFixture[str]) -> N
     assert any(line.split()[:2] == ["sessions", "300"] for line in lines)
     for label in ("list all", "list by scenario", "list by result", "events of 300 sessions"):
         assert any(line.strip().startswith(label) for line in lines), label
+
+
+def test_metrics_read_from_the_rows_are_those_of_the_whole_events(
+    store: SessionStore, everything: list[SessionRecord]
+) -> None:
+    lean = stored_metrics(store, everything)
+    whole = [session_metrics(store.events(s.id), s.clock) for s in everything]
+    assert lean == whole
+    # The store is what a study measures: timed sessions on the simulated clock with
+    # the simulated human's actions, and camera answers judged against the truth.
+    assert all(s.clock == "simulated" for s in everything)
+    assert all(m.timed and m.human_active_s for m in whole)
+    assert sum(m.camera_answers for m in whole) > 0
+    assert any(m.camera_agreement is not None for m in whole)
+    assert any(m.robot_idle_s and m.functional_delay_s for m in whole)
+    some = everything[::7]
+    assert stored_metrics(store, some) == [whole[k] for k in range(0, SESSIONS, 7)]
+    assert stored_metrics(store, []) == []
+
+
+def test_the_metrics_benchmark_prints_its_table(capsys: pytest.CaptureFixture[str]) -> None:
+    assert metrics_scale.main(["--sessions", "200", "--runs", "1"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("tandem sessions metrics --json")
+    sessions = next(line.split(None, 1)[1] for line in lines if line.split()[0] == "sessions")
+    assert sessions == "200 (200 timed, 200 with human activity)"
+    assert any(line.strip().startswith("median") for line in lines)

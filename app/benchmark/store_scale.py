@@ -10,10 +10,11 @@ sessions must read first).
 The events are real: seeded executions of the default scenario's plan, most
 answered at random and some by the simulated camera (whose evidence and JPEG
 frames are stored as a camera session's are), each session a copy of one of them
-moved to its own start time, so the store has the rows, the evidence and the
-event counts of real runs. Rows are written in one transaction (a commit per
-event, as a live session does, would take minutes at this scale), with the
-store's own plan hashing and event rows.
+moved to its own start time (its events' times with it, on the simulated clock,
+the simulated human's actions among them), so the store has the rows, the
+evidence, the times and the event counts of real runs. Rows are written in one
+transaction (a commit per event, as a live session does, would take minutes at
+this scale), with the store's own plan hashing and event rows.
 """
 
 from __future__ import annotations
@@ -28,11 +29,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.execution.events import ExecutionEvent, Result
+from app.execution.events import Clock, ExecutionEvent, Result
 from app.execution.walker import Executor
 from app.responses.camera import camera_responses
 from app.sessions.export import event_row
-from app.sessions.store import SessionStore
+from app.sessions.store import EVENT_TIMES, SessionStore
 from app.sources.outcomes import FallbackSource, RandomSource
 from planner.plan.model import Plan
 from planner.planning import plan_scenario
@@ -56,6 +57,9 @@ RESULT_WEIGHTS: dict[Result, float] = {
     "interrupted": 0.05,
     "dead-end": 0.05,
 }
+# The template runs are on the simulated clock (the executor's default), with the
+# simulated human's own actions as `human` events: timed sessions.
+CLOCK: Clock = "simulated"
 SESSION_COLUMNS = (
     "scenario",
     "scenario_sha256",
@@ -66,6 +70,7 @@ SESSION_COLUMNS = (
     "note",
     "pid",
     "host_boot",
+    "clock",
 )
 
 
@@ -130,7 +135,7 @@ def build_store(
             result = rng.choices(results, weights)[0]
             shift = started - run[0].time
             ended = run[-1].time + shift + 1.0
-            row = (scenario, "0" * 64, digest, started, ended, result, None, 1, "bench")
+            row = (scenario, "0" * 64, digest, started, ended, result, None, 1, "bench", CLOCK)
             session_id = conn.execute(insert_session, row).lastrowid
             written += _write_events(store, session_id, run, shift)
     return written
@@ -142,13 +147,13 @@ def _write_events(
     rows = []
     evidence = []
     for event in run:
-        row = {"session_id": session_id, **event_row(event)}
+        row = {"session_id": session_id, **event_row(event), **_times(event, shift)}
         row["time"] = event.time + shift
         rows.append(tuple(row.values()))
         if event.evidence is not None:
             detail = json.dumps(event.evidence.to_json(), sort_keys=True)
             evidence.append((session_id, event.seq, detail, event.evidence.jpeg))
-    names = ", ".join(["session_id", *event_row(run[0])])
+    names = ", ".join(["session_id", *event_row(run[0]), *EVENT_TIMES])
     store.db.conn.executemany(
         f"insert into events ({names}) values ({', '.join('?' * len(rows[0]))})", rows
     )
@@ -156,6 +161,15 @@ def _write_events(
         "insert into evidence (session_id, seq, detail, jpeg) values (?, ?, ?, ?)", evidence
     )
     return len(rows)
+
+
+def _times(event: ExecutionEvent, shift: float) -> dict[str, float | None]:
+    """The event's start, end and wait, moved by `shift` (as the store's columns)."""
+    times = (event.start, event.end, event.wait_start)
+    return {
+        column: None if t is None else t + shift
+        for column, t in zip(EVENT_TIMES, times, strict=True)
+    }
 
 
 def median_ms(call: Callable[[], object], repeats: int = REPEATS) -> float:
