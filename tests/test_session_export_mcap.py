@@ -24,6 +24,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from app.execution.events import ExecutionEvent, is_step
+from app.execution.timing import segment_seconds
 from app.sessions.mcap_export import SessionRun, write_session
 from app.sessions.store import SessionStore
 from planner.feasibility.arms import joint_names
@@ -42,6 +43,8 @@ TOPIC_SCHEMAS = {
     "/camera/image/compressed": "sensor_msgs/msg/CompressedImage",
     "/rosout": "rcl_interfaces/msg/Log",
     "/speech": "rcl_interfaces/msg/Log",
+    "/robot_description": "std_msgs/msg/String",
+    "/tf_static": "tf2_msgs/msg/TFMessage",
 }
 
 
@@ -120,7 +123,7 @@ def test_topics_and_their_ros2_schemas(
 ) -> None:
     decoded = exported[session]
     assert decoded.profile == "ros2"
-    expected = {"/joint_states", "/tf", "/rosout"}
+    expected = {"/joint_states", "/tf", "/rosout", "/robot_description", "/tf_static"}
     expected |= {"/camera/image/compressed"} if session == 1 else {"/speech"}
     assert set(decoded.schemas) == expected
     assert all(decoded.schemas[topic] == TOPIC_SCHEMAS[topic] for topic in expected)
@@ -167,7 +170,7 @@ def test_log_lines_when_each_event_starts_waits_and_ends(
 
 
 @pytest.mark.parametrize("session", [1, 2])
-def test_joint_states_follow_each_motion_between_its_event_and_the_next(
+def test_joint_states_follow_each_motion_over_its_stored_time(
     exported: dict[int, Decoded], data_dir: Path, session: int
 ) -> None:
     _, run = stored(data_dir, session)
@@ -176,21 +179,23 @@ def test_joint_states_follow_each_motion_between_its_event_and_the_next(
     assert moved
     for k, motion in moved:
         event = run.events[k]
-        # A motion that took time (the simulated clock) runs over its event's own
-        # start and end; one that took none, from its event to the next.
-        took_time = event.start is not None and event.end is not None and event.end > event.start
-        start, end = (event.start, event.end) if took_time else (event.time, run.events[k + 1].time)
-        assert start is not None and end is not None
+        # On the simulated clock every motion takes time: it runs over its event's
+        # own start and end.
+        start, end = event.start, event.end
+        assert start is not None and end is not None and end > start
         along = [next(states) for _ in motion.path]
         assert [list(m.name) for _, m in along] == [joint_names(motion.arm)] * len(along)
         assert [list(m.position) for _, m in along] == motion.path
         times = [t for t, _ in along]
         assert times[0] == ns(start) and abs(times[-1] - ns(end)) <= 1
         assert times == sorted(times)
-        # Evenly spread: the gaps differ by no more than epoch seconds in a float
-        # resolve (a quarter of a microsecond today).
+        # Each segment takes its share of the stored time as the execution's timing
+        # model times it (on the simulated clock exactly its duration); to within
+        # what epoch seconds in a float resolve (a quarter of a microsecond today).
+        segments = segment_seconds(motion.joints, motion.path)
+        share = (end - start) / sum(segments)
         gaps = [b - a for a, b in zip(times, times[1:], strict=False)]
-        assert max(gaps) - min(gaps) <= 1000
+        assert all(abs(g - ns(s * share)) <= 1000 for g, s in zip(gaps, segments, strict=True))
         assert all(t == stamp_ns(m.header.stamp) for t, m in along)
     assert next(states, None) is None
 
@@ -238,19 +243,20 @@ def test_the_spoken_and_heard_lines(exported: dict[int, Decoded], data_dir: Path
         for e in events
         if e.evidence is not None and e.evidence.voice is not None
     ]
-    # The robot speaks when its step begins.
-    said = [
-        (ns(e.start if e.start is not None else e.time), e.evidence.spoken.said)
-        for e in events
-        if e.evidence is not None and e.evidence.spoken is not None
-    ]
+    # The robot speaks when its step begins: its recorded line, or a question the
+    # voice asked aloud whose audio the event does not keep (its text).
+    said = []
+    for e in events:
+        evidence = e.evidence
+        began = ns(e.start if e.start is not None else e.time)
+        if evidence is not None and evidence.spoken is not None:
+            said.append((began, evidence.spoken.said))
+        elif evidence is not None and evidence.voice is not None and e.text:
+            if evidence.voice.engine != "none":  # asked aloud, not only on screen
+                said.append((began, e.text))
     assert heard and said
     assert [(t, m.msg) for t, m in lines if m.name == "human"] == heard
-    robot = [(t, m.msg) for t, m in lines if m.name == "robot"]
-    assert set(said) <= set(robot)
-    # A question asked aloud is the robot's line too, before the answer heard.
-    assert len(robot) == len(said) + len(heard)
-    assert {m.name for _, m in lines} == {"robot", "human"}
+    assert [(t, m.msg) for t, m in lines if m.name == "robot"] == said
 
 
 def test_a_timing_model_gives_the_waypoints_times(data_dir: Path, tmp_path: Path) -> None:
@@ -399,7 +405,6 @@ def hand_made_session(folder: Path) -> tuple[SessionRun, float]:
 def test_a_hand_made_session_at_its_real_times(tmp_path: Path) -> None:
     from math import pi, sqrt
 
-    from app.execution.timing import segment_seconds
     from app.sessions.mcap_export import RobotModel
     from planner.feasibility.robot import baxter_description
 

@@ -18,7 +18,6 @@ import io
 import json
 import sqlite3
 import sys
-from collections.abc import Mapping
 from datetime import date
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -33,7 +32,6 @@ from app.sessions.studies import FINAL_RESULTS
 from app.sessions.summary import camera_agreement, summary
 
 if TYPE_CHECKING:
-    from app.sessions.mcap_export import PartsAt
     from planner.scenario.model import Scenario
 
 EXPORT_FORMATS = ("json", "csv", "mcap")
@@ -229,6 +227,7 @@ def _study_session_ids(store: SessionStore, study: str) -> set[int]:
 
 def _export_mcap(args: argparse.Namespace, session_id: int) -> int:
     # Loaded here: listing sessions needs neither the MCAP writer nor the geometry.
+    from app.dashboard.session_files import baxter_model, parts_at
     from app.sessions.mcap_export import SessionRun, write_session
 
     if not args.output:
@@ -242,10 +241,10 @@ def _export_mcap(args: argparse.Namespace, session_id: int) -> int:
             "left out (give the scenario with --scenario FILE)",
             file=sys.stderr,
         )
-    parts_at = None if scenario is None else _parts_at(scenario)
+    parts = None if scenario is None else parts_at(scenario)
     try:
         with Path(args.output).open("wb") as out:
-            counts = write_session(out, run, parts_at=parts_at)
+            counts = write_session(out, run, parts_at=parts, robot=baxter_model(scenario))
     except OSError as err:
         raise BadInput(f"{args.output}: cannot write: {err.strerror or err}") from err
     print(", ".join(f"{topic}: {n}" for topic, n in sorted(counts.items())))
@@ -266,20 +265,3 @@ def _scenario_of(given: str | None, sha256: str | None) -> Scenario | None:
         if hashlib.sha256(path.read_bytes()).hexdigest() == sha256:
             return load_scenario(path)
     return None
-
-
-def _parts_at(scenario: Scenario) -> PartsAt:
-    """The parts' poses as a node of a plan of `scenario` leaves them, placed as the
-    dashboard's bench draws them."""
-    from app.execution.world import world_at
-    from planner.feasibility.scene import part_boxes, region_extents
-    from planner.plan.model import Plan
-
-    boxes = part_boxes(scenario)
-    human_edge_x = max(hi for _, hi in region_extents(scenario).values())
-
-    def parts_at(plan: Plan, node_id: str) -> Mapping[str, tuple[float, float, float]]:
-        world = world_at(plan.nodes, [node_id], boxes, human_edge_x=human_edge_x)
-        return {part: (p.x, p.y, p.z) for part, p in world.parts.items()}
-
-    return parts_at
