@@ -7,6 +7,8 @@ from __future__ import annotations
 import json
 import os
 import re
+import signal
+import subprocess
 from pathlib import Path
 
 import cv2
@@ -18,7 +20,7 @@ from perception.sim import CameraPlacement, SimulatedCamera
 from planner.resources import find_scenario
 from planner.scenario.loading import load_scenario
 from tests.chessboard_frames import board_views
-from tests.plan_fixtures import tandem
+from tests.plan_fixtures import ROOT, tandem, tandem_command
 
 SIZE = (800, 800)
 HFOV = 50.0  # not the 60 deg default, so only a calibration gives the camera's height
@@ -141,6 +143,30 @@ def test_sources_that_cannot_be_read_are_one_line(tmp_path: Path) -> None:
     )
 
 
+def until_said(words: str, *args: str, env: dict[str, str]) -> str:
+    """`tandem ARGS`'s standard error until a line holds `words` (or the run ends); a
+    run on the wall clock lasts as long as the robot's motions, so it is stopped
+    there, as a person stops it (SIGTERM), once it has said what the test reads."""
+    run = subprocess.Popen(
+        [*tandem_command(), *args], cwd=ROOT, env=env, text=True,
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    assert run.stderr is not None
+    lines: list[str] = []
+    try:
+        for line in run.stderr:
+            lines.append(line)
+            if words in line:
+                run.send_signal(signal.SIGTERM)
+                break
+        run.wait(timeout=60)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
+    return "".join(lines)
+
+
 def test_execute_takes_the_calibration_of_a_real_camera(
     calibration: Path, bench_frames: Path, tmp_path: Path
 ) -> None:
@@ -150,9 +176,10 @@ def test_execute_takes_the_calibration_of_a_real_camera(
     done = tandem("execute", "default.toml", "--responses", f"camera:{bench_frames}",
                   "--calibration", str(calibration), "--seed", "1", env=env)  # fmt: skip
     assert "--seed goes with" in done.stderr  # a real camera's run is not seeded
-    done = tandem("execute", "default.toml", "--responses", f"camera:{bench_frames}",
-                  "--calibration", str(calibration), env=env)  # fmt: skip
-    assert "-> no (camera)" in done.stderr, done.stderr
+    camera = f"camera:{bench_frames}"
+    said = until_said("-> no (camera)", "execute", "default.toml", "--responses", camera,
+                      "--calibration", str(calibration), env=env)  # fmt: skip
+    assert "-> no (camera)" in said, said
     missing = tmp_path / "missing.json"
     line = one_line("execute", "default.toml", "--responses", "camera:sim",
                     "--calibration", str(missing))  # fmt: skip
