@@ -63,7 +63,8 @@ def metrics_markdown(events: Sequence[ExecutionEvent], clock: str | None) -> str
     counts = (f"{_questions(m)} · **repairs** {m.repairs} · **fallbacks to clicks** "
               f"{m.fallbacks}{_agreement(m)}")  # fmt: skip
     if not m.timed:
-        return f"**Metrics** (untimed: stored before steps had times): {m.steps} steps. {counts}"
+        why = "stored before steps had times and sessions a clock"
+        return f"**Metrics** (untimed: {why}): {m.steps} steps. {counts}"
     task = m.task_s
     delay = _seconds(m.functional_delay_s, task)
     return "\n\n".join((
