@@ -273,3 +273,17 @@ def test_an_old_untimed_session_is_reviewed_with_its_counts(tmp_path: Path) -> N
         assert review.study.pick.value == "(no studies)"
     finally:
         d.close()
+
+
+def test_a_session_with_camera_frames_downloads_as_mcap_with_them(
+    page: Page, dashboard: Dashboard, tmp_path: Path
+) -> None:
+    from tests.test_dashboard_export import downloaded, joint_states
+
+    open_session(page, dashboard, 3)  # the simulated camera's session
+    name = "tandem-session-3.mcap"
+    states, others = joint_states(downloaded(page, "Export MCAP", name, tmp_path))
+    events = dashboard.store.events(3, with_jpeg=True)
+    frames = [e.evidence.jpeg for e in events if e.evidence is not None and e.evidence.jpeg]
+    assert frames and [bytes(m.data) for m in others["/camera/image/compressed"]] == frames
+    assert states and len(others["/robot_description"]) == 1
