@@ -125,9 +125,9 @@ def session_waypoint_times(
 
 def timed_waypoint_times(segment_seconds: SegmentSeconds) -> WaypointTimes:
     """Waypoint times over the event's own start and end, each segment taking its
-    share of that time in proportion to how long `segment_seconds` says it takes
-    (the arm slows where its joints turn far); `session_waypoint_times` where there
-    is no duration to share."""
+    share of that time in proportion to how long `segment_seconds` says it takes (a
+    segment whose joints turn far takes longer); `session_waypoint_times` where
+    there is no duration to share."""
 
     def times(event: ExecutionEvent, motion: Motion, next_time: float | None) -> list[float]:
         start, end = event.start, event.end
