@@ -25,11 +25,17 @@ Samples = npt.NDArray[np.int16]
 
 @dataclass(frozen=True)
 class Recording:
-    """Mono audio and where it came from ("microphone", a file path, "simulated:...")."""
+    """Mono audio and where it came from ("microphone", a file path, "simulated:...").
+
+    `recorded_at` is the wall time (epoch seconds) of its first sample when it was
+    recorded live (a microphone); None for a file or a simulated voice, which have no
+    time of their own.
+    """
 
     samples: Samples
     rate: int
     origin: str
+    recorded_at: float | None = None
 
     @property
     def duration_s(self) -> float:

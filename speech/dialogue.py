@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
@@ -92,6 +92,9 @@ class Hearing:
 
     `meaning` is the answer ("yes"/"no") and `command` the command, when taken;
     otherwise `reason` says why not (a `DialogueRefusal` or the recogniser's).
+    Stream times: `start_s` the voice activity's onset, `end_s` when the ear ended
+    the utterance (after the end-of-speech pause), `speech_end_s` the end of its
+    speech (its last loud block).
     """
 
     start_s: float
@@ -101,6 +104,11 @@ class Hearing:
     meaning: str | None = None
     command: Command | None = None
     reason: str | None = None
+    speech_end_s: float | None = None  # None: `end_s`
+
+    @property
+    def spoken_until_s(self) -> float:
+        return self.end_s if self.speech_end_s is None else self.speech_end_s
 
     @property
     def origin(self) -> str:
@@ -144,6 +152,8 @@ class Commands:
 
 
 CommandListener = Callable[[Command, Hearing], None]
+# Told every utterance the ear heard, as it ends (in the ear's thread).
+HearingListener = Callable[[Hearing], None]
 
 
 @dataclass
@@ -177,6 +187,7 @@ class Ear:
         self.times = times
         self.commands = commands
         self.on_command = on_command
+        self.on_heard: HearingListener | None = None
         self.canceller = EchoCanceller() if cancel_echo else None
         self.cut = EndOfSpeech(BLOCK_S, start_db, times.end_of_speech_s, times.max_utterance_s)
         self.heard: list[Hearing] = []
@@ -335,6 +346,7 @@ class Ear:
 
     def _end(self, current: _Utterance, end_s: float) -> None:
         too_long = self.cut.too_long
+        spoken_until = end_s - self.cut.quiet_s
         self._current = None
         if too_long:
             self._draining = True
@@ -342,18 +354,24 @@ class Ear:
             self.cut.restart()
         command = self._command(current, too_long, end_s)
         if command is not None:
-            self.heard.append(command)
+            command = replace(command, speech_end_s=spoken_until)
+            self._heard(command)
             if self.on_command is not None:
                 self.on_command(command.command or "stop", command)
             return
-        hearing = self._judged(current, too_long, end_s)
-        self.heard.append(hearing)
+        hearing = replace(self._judged(current, too_long, end_s), speech_end_s=spoken_until)
+        self._heard(hearing)
         if self._awaiting is None or self._answer is None:
             return
         if hearing.reason == "own voice":
             self._answer.own_voice.append(hearing)
         elif current.answers is not None:
             self._answer.hearing = hearing
+
+    def _heard(self, hearing: Hearing) -> None:
+        self.heard.append(hearing)
+        if self.on_heard is not None:
+            self.on_heard(hearing)
 
     def _command(self, current: _Utterance, too_long: bool, end_s: float) -> Hearing | None:
         if current.commands is None or too_long:

@@ -113,12 +113,17 @@ class SimulatedRoom:
         self._echo = np.zeros(32)
         self._echo[16], self._echo[28] = echo_gain, 0.3 * echo_gain
         self._start = time.monotonic()
+        self.origin = time.time()  # the wall time of stream time 0
         self._read = 0  # samples handed out
         self.robot_until_s = 0.0  # when the robot's last sentence ends
         self.level = 0.0
 
     def now_s(self) -> float:
         return time.monotonic() - self._start
+
+    def wall_s(self, stream_s: float) -> float:
+        """The wall time (epoch seconds) of stream time `stream_s`."""
+        return self.origin + stream_s
 
     @property
     def position_s(self) -> float:
@@ -297,26 +302,93 @@ class MicrophoneSource:
         device_rate = self._rate()
         live = feed if device_rate == RATE else None
         block = int(self.BLOCK_S * device_rate)
-        utterance = LiveUtterance(
-            EndOfSpeech(self.BLOCK_S, self.start_db, self.pause_s, self.max_s), live
-        )
-        deadline = time.monotonic() + timeout_s
+        cut = EndOfSpeech(self.BLOCK_S, self.start_db, self.pause_s, self.max_s)
         with self._sd.InputStream(
             device=self.device, samplerate=device_rate, channels=1, dtype="int16"
         ) as stream:
-            while True:
+
+            def read() -> Samples:
                 data, _ = stream.read(block)
-                chunk = as_int16(data)
-                self.level = rms(chunk)
-                if self.on_level is not None:
-                    self.on_level(self.level)
-                if utterance.push(chunk):
-                    break
-                if not utterance.started and time.monotonic() > deadline:
-                    return None
-        samples = resample(utterance.samples(), device_rate, RATE)
+                return as_int16(data)
+
+            # A block is read as soon as it is recorded: it ends now on the wall clock.
+            heard = cut_utterance(read, time.time, cut, timeout_s, live, self._heard_level)
+        if heard is None:
+            return None
+        samples = resample(heard.samples, device_rate, RATE)
         if feed is not None and live is None:
             # Another rate: resampled once it is all in, then decoded.
             for start in range(0, len(samples), BLOCK):
                 feed(samples[start : start + BLOCK])
-        return Recording(samples=samples, rate=RATE, origin="microphone")
+        return Recording(samples, RATE, "microphone", heard.recorded_at)
+
+    def _heard_level(self, chunk: Samples) -> None:
+        self.level = rms(chunk)
+        if self.on_level is not None:
+            self.on_level(self.level)
+
+
+@dataclass(frozen=True)
+class _Cut:
+    samples: Samples
+    recorded_at: float  # wall time of the first sample
+
+
+def cut_utterance(
+    read: Callable[[], Samples],
+    clock: Callable[[], float],
+    cut: EndOfSpeech,
+    timeout_s: float,
+    feed: Callable[[Samples], None] | None = None,
+    on_block: Callable[[Samples], None] | None = None,
+) -> _Cut | None:
+    """The next utterance of a live stream, cut by `cut` (None: nobody spoke within
+    `timeout_s`): each block as `read` hands it over, `clock` the wall time at the end
+    of the block just read, so the utterance's first sample has a wall time. `feed`
+    gets the utterance's blocks while it is spoken; `on_block` every block."""
+    utterance = LiveUtterance(cut, feed)
+    deadline = time.monotonic() + timeout_s
+    ends: list[float] = []  # the wall time at the end of each block
+    while True:
+        chunk = read()
+        ends.append(clock())
+        if on_block is not None:
+            on_block(chunk)
+        if utterance.push(chunk):
+            break
+        if not utterance.started and time.monotonic() > deadline:
+            return None
+    return _Cut(utterance.samples(), ends[utterance.first_block] - cut.block_s)
+
+
+class RoomMicrophone:
+    """A microphone in a `SimulatedRoom`, heard as `MicrophoneSource` hears a device:
+    one utterance per `listen()`, cut and timed by the same `cut_utterance` from the
+    moment it starts listening (what the room heard before is dropped, as a device
+    opened then would not have it)."""
+
+    def __init__(
+        self, room: SimulatedRoom, start_db: float = 12.0, pause_s: float = 0.2, max_s: float = 8.0
+    ) -> None:
+        self.room = room
+        self.start_db = start_db
+        self.pause_s = pause_s
+        self.max_s = max_s
+        self.level = 0.0
+
+    def listen(
+        self, timeout_s: float, feed: Callable[[Samples], None] | None = None
+    ) -> Recording | None:
+        room = self.room
+        while room.position_s < room.now_s() - BLOCK / RATE:
+            room.read()
+        cut = EndOfSpeech(BLOCK / RATE, self.start_db, self.pause_s, self.max_s)
+        heard = cut_utterance(
+            room.read, lambda: room.wall_s(room.position_s), cut, timeout_s, feed, self._heard
+        )
+        if heard is None:
+            return None
+        return Recording(heard.samples, RATE, "room microphone", heard.recorded_at)
+
+    def _heard(self, chunk: Samples) -> None:
+        self.level = rms(chunk)

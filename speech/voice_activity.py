@@ -63,6 +63,29 @@ def activity(
     )
 
 
+@dataclass(frozen=True)
+class SpeechSpan:
+    """Where the speech of a clip is: from its first loud frame to the end of its last
+    (seconds from the clip's first sample)."""
+
+    start_s: float
+    end_s: float
+
+    @property
+    def duration_s(self) -> float:
+        return self.end_s - self.start_s
+
+
+def speech_span(samples: Samples, rate: int, min_speech_s: float = 0.12) -> SpeechSpan | None:
+    """The speech in a clip (`activity`'s loud frames), or None when it has less than
+    `min_speech_s` of them (silence or steady noise, as the recognisers' gate)."""
+    loud = activity(samples, rate)
+    if not loud.is_speech(min_speech_s):
+        return None
+    frames = np.flatnonzero(loud.active)
+    return SpeechSpan(float(frames[0]) * FRAME_S, float(frames[-1] + 1) * FRAME_S)
+
+
 class EndOfSpeech:
     """Where an utterance ends in a live stream, block by block (the microphone's cut).
 
@@ -166,6 +189,11 @@ class LiveUtterance:
 
     def _first(self) -> int:
         return max(0, (self.cut.started_at or 0) - self.pre_roll)
+
+    @property
+    def first_block(self) -> int:
+        """The index of the first block `samples` keeps (the pre-roll's first)."""
+        return self._first()
 
     def samples(self) -> Samples:
         """The utterance so far, from the pre-roll on."""

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from pydantic import ValidationError
 
-from app.execution.events import ExecutionEvent, is_step
+from app.execution.events import DIALOGUE_KINDS, ExecutionEvent, is_step
 from app.execution.walker import Executor
 from app.responses.voice import LiveDialogue, VoiceResponses, dialogue_times
 from app.sessions.store import SessionStore
@@ -180,7 +180,8 @@ def _questions(plan: Plan, events: Sequence[ExecutionEvent]) -> list[ExecutionEv
 
 
 def _turns(events: Sequence[ExecutionEvent], node: str) -> list[tuple[str, str]]:
-    return [(e.kind, e.text or "") for e in events if not is_step(e) and e.node == node]
+    """The dialogue's turns at `node` (not its steps, nor the human's actions)."""
+    return [(e.kind, e.text or "") for e in events if e.kind in DIALOGUE_KINDS and e.node == node]
 
 
 def test_own_voice_is_kept_as_an_event_of_the_session(

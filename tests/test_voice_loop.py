@@ -70,7 +70,9 @@ def loop(
         questions = [
             e
             for e in executor.events
-            if is_question(plan.nodes[e.node], plan.nodes[e.node].outcomes)
+            # The steps, not the human's action a "yes" starts at the same node.
+            if e.kind == "communication"
+            and is_question(plan.nodes[e.node], plan.nodes[e.node].outcomes)
         ]
         assert questions, f"seed {seed}: no question was asked"
         assert set(voice.attempts) == {e.node for e in questions}

@@ -222,14 +222,21 @@ def _timeline(args: argparse.Namespace, seed: int | None, scenario: Scenario | N
     """Runs with a device or a person (a live camera, a microphone, a person at the
     console, a robot) or a step delay keep the wall clock, on which every step takes
     its real time; the others, answered by simulators, a script or answers piped in,
-    run on a simulated clock (fast, the same for a seed)."""
+    run on a simulated clock (fast, the same for a seed). The simulated voice and a
+    folder of answers are audio heard at once, not played in real time: a question
+    they answer lasts as its dialogue's audio does on the simulated clock."""
     spec = str(args.responses)
     person = spec == "click" and sys.stdin.isatty()
     camera = spec.startswith("camera:") and spec != "camera:sim"
     live = person or camera or spec == "voice:mic"
     if live or args.step_delay > 0 or args.robot != "drawing":
         return WallTimeline()
-    return SimulatedTimeline(seed or 0, scenario.human if scenario is not None else None)
+    human = scenario.human if scenario is not None else None
+    if spec.startswith("voice:"):
+        from app.sources.voice_clock import DialogueTimeline
+
+        return DialogueTimeline(seed or 0, human)
+    return SimulatedTimeline(seed or 0, human)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -17,6 +17,14 @@ own voice for an answer, the scenario's `DialogueTimes` bound the waits, and
 dialogue's turns (asked again, fell back, too long, own voice, paused,
 resumed) are kept as events of the execution that `attach`es the source.
 
+The human's speech is the human's activity: each utterance taken as the human's
+(an answer, refused or not, a command; not the robot's own voice, not silence)
+is kept as a `human` event of source `voice`, from its voice-activity onset to
+the end of its speech, on the execution's clock (`app.sources.voice_clock`:
+the wall clock, or a `DialogueTimeline`; on another simulated clock the voice
+keeps no times). The robot asks each question as the narrator reaches it, and
+again before a second try.
+
 No speech model for the language is `NoSpeechModel` (one line); no
 microphone is `NoAudioDevice`; a missing folder `FileNotFoundError`.
 """
@@ -31,12 +39,12 @@ from pathlib import Path
 from app.execution.events import ExecutionControls, Outcome, OutcomeSource
 from app.execution.evidence import merged
 from app.execution.narration import Line, LineListener, RobotVoice
+from app.execution.timing import Timeline
 from app.sim.speaker import SimulatedSpeaker
 from app.sources.outcomes import ScriptedSource
 from app.sources.stop_listener import StopListener
 from app.sources.voice import (
     ANSWERS,
-    Asked,
     Attempt,
     AttemptListener,
     ListeningListener,
@@ -44,6 +52,7 @@ from app.sources.voice import (
     VoiceSource,
     is_question,
 )
+from app.sources.voice_clock import DialogueClock, DialogueTimeline, Said, WallDialogue
 from planner.plan.model import PlanNode
 from planner.scenario.sections import Human
 from speech.audio import RATE, read_wav, resample
@@ -86,12 +95,16 @@ class DialogueVoice(VoiceSource):
         super().__init__(language_code, audio, recognizer, voice,
                          listen_timeout_s=no_speech_s, hooks=hooks)  # fmt: skip
         self.ear = ear
+        self.end_of_speech_s = ear.times.end_of_speech_s
         self.on_own_voice: OwnVoiceListener | None = None
+        self.wall_of: Callable[[float], float] | None = None  # the ear's stream time on the wall
         self._asked_from = 0  # the ear's hearings since the question was asked
+        # Before the line is played: the narrator's first ask, or the voice's own.
+        self.voice.listeners.insert(0, self._line_said)
 
-    def speak(self, node_id: str, text: str) -> Asked:
-        self._asked_from = len(self.ear.heard)
-        return super().speak(node_id, text)
+    def _line_said(self, line: Line) -> None:
+        if line.node_id:  # a line of the plan (the dialogue's own have none)
+            self._asked_from = len(self.ear.heard)
 
     def interrupt(self) -> None:
         super().interrupt()
@@ -177,12 +190,21 @@ class VoiceAnswers:
         self.controls = controls
         if self.stops is not None:
             self.stops.attach(controls)
+        clock = dialogue_clock(getattr(controls, "timeline", None), self.voice)
+        if isinstance(self.voice, DialogueVoice):
+            # The live ear times what it hears itself, in real time: on the wall clock.
+            if clock is not None and clock.clock == "wall":
+                self.voice.ear.on_heard = self._heard_live
+        else:
+            self.voice.clock = clock
 
     def detach(self, controls: ExecutionControls) -> None:
         self.controls = None
+        self.voice.clock = None
         if self.stops is not None:
             self.stops.attach(None)
         if isinstance(self.voice, DialogueVoice):
+            self.voice.ear.on_heard = None
             self.voice.ear.close()
 
     def hold(self, held: bool) -> None:
@@ -192,11 +214,17 @@ class VoiceAnswers:
             self.voice.ear.hold(held)
 
     def _attempted(self, attempt: Attempt) -> None:
-        """Each try: told on, and a refusal kept as the dialogue's turn."""
+        """Each try: told on, the human's speech kept, and a refusal kept as the
+        dialogue's turn."""
         if self._told is not None:
             self._told(attempt)
         controls = self.controls
-        if controls is None or attempt.accepted:
+        if controls is None:
+            return
+        if attempt.said is not None:
+            words = speech_words(attempt.heard, attempt.meaning, attempt.reason)
+            controls.observe_human(*attempt.said, words, "voice", node_id=attempt.node_id)
+        if attempt.accepted:
             return
         if attempt.reason == "too long" and isinstance(self.voice, DialogueVoice):
             limit = self.voice.ear.times.max_utterance_s
@@ -205,6 +233,18 @@ class VoiceAnswers:
         if attempt.number < self.voice.tries:
             controls.note("asked-again", f"asked again ({attempt.reason})", "voice",
                           node_id=attempt.node_id)  # fmt: skip
+
+    def _heard_live(self, hearing: Hearing) -> None:
+        """An utterance the live ear heard (its thread): the human's speech, on the wall
+        clock, unless it was the robot's own voice."""
+        controls = self.controls
+        wall_of = self.voice.wall_of if isinstance(self.voice, DialogueVoice) else None
+        if controls is None or wall_of is None or hearing.reason == "own voice":
+            return
+        said = Said(wall_of(hearing.start_s), wall_of(hearing.spoken_until_s))
+        words = speech_words(" ".join(hearing.words), hearing.meaning or hearing.command,
+                             hearing.reason)  # fmt: skip
+        controls.observe_human(*said, words, "voice")
 
     def _own_voice(self, node_id: str, hearing: Hearing) -> None:
         if self.controls is not None:
@@ -262,6 +302,24 @@ class VoiceAnswers:
     def _clicked(self, node_id: str) -> bool:
         clicked = getattr(self.fallback, "clicked", None)
         return bool(clicked(node_id)) if callable(clicked) else False
+
+
+def dialogue_clock(timeline: Timeline | None, voice: VoiceSource) -> DialogueClock | None:
+    """The clock the voice's turns go on while `timeline` runs: the wall clock, a
+    `DialogueTimeline`, or none (another simulated clock draws the answers' times)."""
+    if isinstance(timeline, DialogueTimeline):
+        return timeline
+    if timeline is not None and timeline.clock == "wall":
+        return WallDialogue(voice.wait, voice.end_of_speech_s)
+    return None
+
+
+def speech_words(heard: str, meaning: str | None, reason: str | None) -> str:
+    """The human's speech in words, for its event."""
+    if meaning is not None:
+        return f"the human says: {heard} ({meaning})"
+    words = f"'{heard}', " if heard else ""
+    return f"the human speaks ({words}refused: {reason})" if reason else "the human speaks"
 
 
 @dataclass
@@ -332,7 +390,7 @@ def voice_responses(
         audio = MicrophoneSource(pause_s=times.end_of_speech_s, max_s=times.max_utterance_s)
     else:
         audio = WavFolderSource(spec)
-    robot = RobotVoice(lang, engine, cache_dir, lines, questions=False)
+    robot = RobotVoice(lang, engine, cache_dir, lines)
     hooks = VoiceHooks(
         on_question=speaker,
         truth=speaker.truth if speaker is not None else None,
@@ -342,6 +400,7 @@ def voice_responses(
     voice = VoiceSource(
         lang, audio, hearing, robot, listen_timeout_s=times.no_speech_s, hooks=hooks
     )
+    voice.end_of_speech_s = times.end_of_speech_s
     return VoiceResponses(VoiceAnswers(voice, fallback, on_fallback), voice, robot, speaker)
 
 
@@ -376,12 +435,12 @@ class LiveDialogue:
         ear = Ear(room, self.times, commands, cancel_echo=self.cancel_echo)
         speakers = RoomSpeakers(room, ear)
         # espeak-ng: the room plays WAV; the speakers last, so a line is printed first.
-        robot = RobotVoice(self.language, "espeak", self.cache_dir, [*lines, speakers],
-                           questions=False)  # fmt: skip
+        robot = RobotVoice(self.language, "espeak", self.cache_dir, [*lines, speakers])
         stops = StopListener(ear, robot, on_stop=speakers.stop)
         ear.on_command = stops
         hooks = replace(hooks, on_question=speaker, truth=speaker.truth)
         voice = DialogueVoice(self.language, speaker.voice, ear, self.recognizer, robot, hooks)
+        voice.wall_of = room.wall_s
         ear.start()
         answers = VoiceAnswers(voice, fallback, on_fallback, stops)
         return VoiceResponses(answers, voice, robot, speaker, room, ear, stops)

@@ -20,6 +20,12 @@ meaning, tries, engine, and what the simulated human really said when one did).
 The simulated human's mouth (`app.sim.speaker.SimulatedSpeaker`) is told through
 `on_question` when the robot has asked, and its `truth` fills the evidence; this
 module never imports it.
+
+The first ask is the narrator's when it said the question as the executor reached
+the node (the walk then waited for it on the wall clock); the voice says it again
+before each later try. With a `clock` (`app.sources.voice_clock`, set while an
+execution runs) each try is timed on the execution's clock, and the human's speech
+(voice-activity onset to the end of speech) is kept on its `Attempt` (`said`).
 """
 
 from __future__ import annotations
@@ -30,12 +36,15 @@ from dataclasses import dataclass
 
 from app.execution.events import AnswerSource, Outcome
 from app.execution.evidence import Evidence, HeardAttempt, Truth, VoiceHearing
-from app.execution.narration import RobotVoice
+from app.execution.narration import Line, RobotVoice
+from app.sources.voice_clock import DialogueClock, Said, line_seconds
 from planner.plan.model import PlanNode
 from planner.vocabulary import QUESTIONS
+from speech.audio import Recording
 from speech.languages import Language, language
 from speech.recognition import Heard, Recognizer
-from speech.sources import AudioSource, MicrophoneSource
+from speech.sources import AudioSource, MicrophoneSource, RoomMicrophone
+from speech.voice_activity import speech_span
 
 ANSWERS = ("yes", "no")
 
@@ -67,6 +76,7 @@ class Asked:
     node_id: str
     text: str
     engine: str
+    duration_s: float | None = None  # its audio (None: not spoken)
 
 
 @dataclass(frozen=True)
@@ -80,6 +90,7 @@ class Attempt:
     meaning: str | None  # "yes"/"no" when accepted
     reason: str | None  # why it was refused (None when accepted)
     origin: str = ""  # where the audio came from ("microphone", a file, "simulated:...")
+    said: Said | None = None  # when the human spoke, on the execution's clock (if timed)
 
     @property
     def accepted(self) -> bool:
@@ -143,15 +154,39 @@ class VoiceSource:
         self.spoken: list[Asked] = []
         self.attempts: dict[str, list[Attempt]] = {}
         self.last_heard: Attempt | None = None
+        self.clock: DialogueClock | None = None  # the execution's, while one runs
+        self.end_of_speech_s = 0.2  # the pause that ends an answer (the dialogue's)
         self._interrupted = threading.Event()
+        self._lines_seen = 0  # the robot's lines said before the question now asked
 
     # -- speaking -------------------------------------------------------------
 
     def speak(self, node_id: str, text: str) -> Asked:
         """Says `text` and records which engine said it ("none" if none could)."""
-        line = Asked(node_id, text, self.voice.say(node_id, text).engine)
-        self.spoken.append(line)
-        return line
+        began = self.clock.now() if self.clock is not None else None
+        asked = _asked(self.voice.say(node_id, text))
+        self.spoken.append(asked)
+        if self.clock is not None:
+            self.clock.said(line_seconds(text, asked.duration_s), began)
+        return asked
+
+    def _ask(self, node_id: str, text: str, number: int) -> None:
+        """The question said: the narrator's line at the first try, if it said it."""
+        narrated = None
+        if number == 1:
+            said = self.voice.lines[self._lines_seen :]
+            narrated = next(
+                (line for line in reversed(said) if (line.node_id, line.text) == (node_id, text)),
+                None,
+            )
+        if narrated is None:
+            self.speak(node_id, text)
+        else:
+            asked = _asked(narrated)
+            self.spoken.append(asked)
+            if self.clock is not None:  # the walk waited for it on the wall clock
+                self.clock.said(line_seconds(text, asked.duration_s), None)
+        self._lines_seen = len(self.voice.lines)
 
     # -- answering ------------------------------------------------------------
 
@@ -159,15 +194,21 @@ class VoiceSource:
         """The next (or current, between attempts) `choose` gives up at once."""
         self._interrupted.set()
 
+    def wait(self, seconds: float) -> None:
+        """Waits `seconds`, or less when interrupted meanwhile."""
+        self._interrupted.wait(seconds)
+
     def choose(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Outcome | None:
         if not is_question(node, options) or not node.say:
             return None  # sensing and silent nodes are for other sources
         records = self.attempts.setdefault(node_id, [])
+        if self.clock is not None:
+            self.clock.asking(node)
         for number in range(1, self.tries + 1):
             if self._interrupted.is_set():
                 self._interrupted.clear()
                 return None
-            self.speak(node_id, node.say)
+            self._ask(node_id, node.say, number)
             if self.on_question is not None:
                 self.on_question(node_id, node, options)
             attempt = self._listen(node_id, number)
@@ -188,9 +229,10 @@ class VoiceSource:
     def _listen(self, node_id: str, number: int) -> Attempt:
         if self.on_listening is not None:
             self.on_listening(True)
+        began = self.clock.now() if self.clock is not None else 0.0
         decoding = None
         try:
-            if isinstance(self.audio, MicrophoneSource):
+            if isinstance(self.audio, MicrophoneSource | RoomMicrophone):
                 # Decoded while it is spoken: the answer comes right after the pause.
                 decoding = self.recognizer.start()
                 recording = self.audio.listen(self.listen_timeout_s, decoding.feed)
@@ -201,12 +243,14 @@ class VoiceSource:
                 self.on_listening(False)
         if recording is None:
             # Nothing came within the timeout: the same refusal as a silent clip.
+            self._timed(None, None, began)
             return Attempt(node_id, number, (), 0.0, None, "silence")
         heard: Heard = (
             decoding.finish()
             if decoding is not None
             else self.recognizer.recognize(recording.samples, recording.rate)
         )
+        said = self._timed(recording, heard, began)
         return Attempt(
             node_id,
             number,
@@ -215,7 +259,18 @@ class VoiceSource:
             heard.meaning,
             heard.reason,
             recording.origin,
+            said,
         )
+
+    def _timed(self, recording: Recording | None, heard: Heard | None, began: float) -> Said | None:
+        """When the human spoke in `recording` (None: nothing heard, or silence), on the
+        clock, which goes on to when the answer was taken."""
+        if self.clock is None:
+            return None
+        speech = None
+        if recording is not None and heard is not None and heard.reason != "silence":
+            speech = speech_span(recording.samples, recording.rate)
+        return self.clock.listened(recording, speech, began, self.listen_timeout_s)
 
     # -- what happened ----------------------------------------------------------
 
@@ -250,3 +305,9 @@ class VoiceSource:
             for a in tried
         ]
         return "; ".join(parts)
+
+
+def _asked(line: Line) -> Asked:
+    utterance = line.utterance
+    return Asked(line.node_id, line.text, line.engine,
+                 utterance.duration_s if utterance is not None else None)  # fmt: skip
