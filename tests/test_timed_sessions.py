@@ -58,11 +58,18 @@ def spans(events: list[ExecutionEvent], kinds: tuple[str, ...]) -> list[tuple[fl
     return sorted(out)
 
 
+def task_actions(events: list[ExecutionEvent]) -> list[ExecutionEvent]:
+    """The human's task actions: its events less its answers to questions (talk, which
+    end with the question they answer and may overlap a task action)."""
+    answered = {(e.node, e.end) for e in events if e.kind != HUMAN and e.outcome is not None}
+    return [e for e in events if e.kind == HUMAN and (e.node, e.end) not in answered]
+
+
 def test_each_agent_does_one_thing_at_a_time(plan: Plan) -> None:
     for seed in SEEDS:
         events = simulated(plan, seed)
-        for kinds in (ROBOT_KINDS, (HUMAN,)):
-            own = spans(events, kinds)
+        for own_events in ([e for e in events if e.kind in ROBOT_KINDS], task_actions(events)):
+            own = spans(own_events, tuple(ROBOT_KINDS) + (HUMAN,))
             assert all(start <= end for start, end in own)
             assert all(
                 a_end <= b_start for (_, a_end), (b_start, _) in zip(own, own[1:], strict=False)
@@ -76,7 +83,7 @@ def test_the_robot_goes_on_after_a_request_and_waits_where_it_watches(plan: Plan
     for seed in SEEDS:
         events = simulated(plan, seed)
         steps = [e for e in events if e.kind in ROBOT_KINDS]
-        for human in (e for e in events if e.kind == HUMAN):
+        for human in task_actions(events):
             assert human.start is not None and human.end is not None
             watching = [s for s in steps if watches_human(plan.nodes[s.node])]
             # A sensing node that watches the human starts once the human is done.
@@ -91,6 +98,24 @@ def test_the_robot_goes_on_after_a_request_and_waits_where_it_watches(plan: Plan
                 assert following.start < human.end and human.start < following.end
                 overlapped += 1
     assert overlapped > 0  # some seed takes a branch with a request the robot talks over
+
+
+def test_the_simulated_human_answers_from_the_question_asked_to_its_answer(
+    plan: Plan,
+) -> None:
+    """A question's answer is the human's activity (talk) while the robot waits."""
+    for seed in SEEDS[:6]:
+        events = simulated(plan, seed)
+        questions = [e for e in events if e.kind == "communication" and e.outcome is not None]
+        assert questions
+        for question in questions:
+            answers = [
+                e for e in events
+                if e.kind == HUMAN and e.node == question.node and e.end == question.end
+            ]  # fmt: skip
+            assert len(answers) == 1 and answers[0].source == "simulated"
+            assert answers[0].start == question.wait_start
+            assert question.start < question.wait_start < question.end  # type: ignore[operator]
 
 
 def test_the_same_seed_gives_the_same_timed_session(plan: Plan) -> None:

@@ -209,9 +209,9 @@ class Timeline(Protocol):
         """When the node last begun started and ends."""
         ...
 
-    def human_event(self, event: ExecutionEvent, node: PlanNode) -> ExecutionEvent | None:
-        """The human's action that the step `event` (just recorded, at `node`) starts
-        or ends, as an event to record, if its times are known now."""
+    def human_events(self, event: ExecutionEvent, node: PlanNode) -> tuple[ExecutionEvent, ...]:
+        """The human's actions that the step `event` (just recorded, at `node`) answers,
+        starts or ends, as events to record, where their times are known now."""
         ...
 
     def surprise_event(
@@ -234,7 +234,7 @@ REPORTED: tuple[AnswerSource, ...] = ("click", "console")
 class WallTimeline:
     """The wall clock: a step starts when reached and ends when done, the walk having
     waited for what takes time (a motion played or made, a line spoken, an answer).
-    The human's actions reported by clicks are timed here (`human_event`); a camera or
+    The human's actions reported by clicks are timed here (`human_events`); a camera or
     a voice records the ones it observes itself."""
 
     clock: Clock = "wall"
@@ -262,9 +262,9 @@ class WallTimeline:
             wait_start = self.started
         return StepTimes(self.started, end, wait_start)
 
-    def human_event(self, event: ExecutionEvent, node: PlanNode) -> ExecutionEvent | None:
+    def human_events(self, event: ExecutionEvent, node: PlanNode) -> tuple[ExecutionEvent, ...]:
         assert event.start is not None and event.end is not None
-        reported = None
+        reported: tuple[ExecutionEvent, ...] = ()
         if event.source in REPORTED and waits_for_human(node):
             # The click ends the human's action; it began when the robot asked for it
             # (this question once asked, or an earlier request).
@@ -273,9 +273,11 @@ class WallTimeline:
             self.requested = None
             what = describe(node.action, event.outcome)
             words = f"the human's action, reported by a {event.source}: {what}"
-            reported = ExecutionEvent(
-                0, event.end, event.node, node.action, HUMAN, source=event.source, text=words,
-                start=start, end=event.end,
+            reported = (
+                ExecutionEvent(
+                    0, event.end, event.node, node.action, HUMAN, source=event.source,
+                    text=words, start=start, end=event.end,
+                ),
             )  # fmt: skip
         if human_activity(node, event.outcome) is not None:
             self.requested = event.end  # asked now: the human starts on it
@@ -340,19 +342,32 @@ class SimulatedTimeline:
         self.robot_free = start + seconds
         return StepTimes(start, self.robot_free, wait_start)
 
-    def human_event(self, event: ExecutionEvent, node: PlanNode) -> ExecutionEvent | None:
-        activity = human_activity(node, event.outcome)
-        if activity is None:
-            return None
+    def human_events(self, event: ExecutionEvent, node: PlanNode) -> tuple[ExecutionEvent, ...]:
         assert event.end is not None
-        # The human reacts, then acts, once done with what it was doing.
-        start = max(event.end + self.paces["react"].draw(self.rng), self.human_free)
-        self.human_free = start + self.paces[activity].draw(self.rng)
-        words = f"{HUMAN_ACTION_WORDS[activity]}, as asked at {node.action}"
-        return ExecutionEvent(
-            0, self.human_free, event.node, node.action, HUMAN, source="simulated",
-            text=words, start=start, end=self.human_free,
-        )  # fmt: skip
+        out: list[ExecutionEvent] = []
+        if event.wait_start is not None and event.outcome is not None and event.source != "voice":
+            # The simulated human's answer: from the question asked to its answer, as a
+            # click reports it on the wall clock (the voice observes the speech itself).
+            words = f"the human answers {event.outcome}, as asked at {node.action}"
+            out.append(
+                ExecutionEvent(
+                    0, event.end, event.node, node.action, HUMAN, source="simulated",
+                    text=words, start=event.wait_start, end=event.end,
+                )
+            )  # fmt: skip
+        activity = human_activity(node, event.outcome)
+        if activity is not None:
+            # The human reacts, then acts, once done with what it was doing.
+            start = max(event.end + self.paces["react"].draw(self.rng), self.human_free)
+            self.human_free = start + self.paces[activity].draw(self.rng)
+            words = f"{HUMAN_ACTION_WORDS[activity]}, as asked at {node.action}"
+            out.append(
+                ExecutionEvent(
+                    0, self.human_free, event.node, node.action, HUMAN, source="simulated",
+                    text=words, start=start, end=self.human_free,
+                )
+            )  # fmt: skip
+        return tuple(out)
 
     def surprise_event(
         self, node_id: str, node: PlanNode, surprise: Surprise, source: AnswerSource

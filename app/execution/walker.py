@@ -452,6 +452,5 @@ class Executor:
                 start=times.start, end=times.end, wait_start=times.wait_start,
             )
         )  # fmt: skip
-        human = self.timeline.human_event(recorded, node)
-        if human is not None:
+        for human in self.timeline.human_events(recorded, node):
             self.log.record(human)
