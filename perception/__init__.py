@@ -17,6 +17,9 @@ detections -> looks at faces -> outlines in the estimate.
 - `observe`: `BenchObserver.observe(frame)` -> `FrameObservation`.
 - `tracking`: `Tracker` -> one `Track` per part (median smoothing, jump hysteresis,
   confidence, timeout to unknown at the last known position).
+- `part_moves`: `MoveWatch` / `part_moves` -> `PartMove` (a part's code leaving the
+  pose it rested at until it settles at a new one or goes out of sight: from
+  pose, to pose, start, end), from raw sightings over time.
 - `layout`: `BenchLayout` (regions, bench top, extents, part shapes and slots).
 - `world`: `WorldEstimator` -> `WorldEstimate` (each part on the bench in a region,
   held by the human or the robot, attached to a part at a slot, or unknown; the

@@ -3,18 +3,21 @@
 Each part's code is followed in its raw sightings, frame by frame (the tracker's
 smoothing and jump hysteresis would delay a move by several frames):
 
-- At rest, the code has a pose: the median of its recent sightings there.
+- At rest, the code has a pose: the median of its first `rest_window` sightings
+  there, then kept (a pose that followed every sighting would creep along with a
+  hand that starts slowly).
 - A sighting more than `move_m` from that pose, or turned more than `move_yaw`,
   is off it; `confirm_frames` such sightings in a row start a move (one bad
   decode does not). The move starts at the last frame that still showed the code
-  at rest: the true start lies between that frame and the first one off it, and
-  the first frame off comes late by the time the part needs to cover `move_m` as
-  well, so the last frame at rest errs less.
+  at its pose (within `still_m` and `still_yaw`): the true start lies between
+  that frame and the next, while the first frame off comes late by the time the
+  part needs to cover `move_m` as well, so the last frame at rest errs less.
 - Moving, the code settles once its sightings stay within `still_m` (and
   `still_yaw`) of the latest one for `settle_s` and at least `settle_frames`
   frames; the move ends at the first frame of that still stretch (its first
   frame at the new pose). Past `hand_x`, in the human's hands, a part is never
-  quite still: there `hand_still_m` counts as still.
+  quite still: there `hand_still_m` counts as still, and only `hand_move_m`
+  takes it out of the hands.
 - A moving code unseen for `vanish_s` went out of sight (into a hand, out of the
   frame): the move ends at the last frame that saw it. A code at rest that goes
   unseen was hidden (a hand over it) unless it comes back elsewhere: then it moved
@@ -58,8 +61,10 @@ class MoveSettings:
     still_yaw: float = math.radians(8.0)
     settle_s: float = 0.3
     settle_frames: int = 3
-    # In the human's hands a part sways by a few centimetres while held still.
+    # In the human's hands a part sways by a few centimetres while held still; it
+    # leaves them (attached, put down) by more than 5 cm.
     hand_still_m: float = 0.03
+    hand_move_m: float = 0.05
     # The tracker's timeout: unseen this long, a moving code went out of sight.
     vanish_s: float = 0.5
     rest_window: int = 5  # sightings whose median is the pose at rest
@@ -108,7 +113,7 @@ class _Part:
     """One code's state: at rest (`rest` set, `moving` empty) or moving."""
 
     rest: deque[_Seen]
-    last_rest: float  # the last frame that showed it at rest
+    last_rest: float  # the last frame that showed it still at its pose
     last_seen: float
     off: list[_Seen] = field(default_factory=list)  # sightings off the pose, not yet a move
     moving: list[_Seen] = field(default_factory=list)
@@ -164,16 +169,21 @@ class MoveWatch:
     def _resting(self, s: _Seen) -> _Part:
         return _Part(deque([s], maxlen=self.settings.rest_window), s.at, s.at)
 
+    def _in_hand(self, pose: Pose) -> bool:
+        return self.hand_x is not None and pose.position[0] > self.hand_x
+
     def _at_rest(self, part: _Part, s: _Seen) -> None:
         cfg = self.settings
         pose = _median_pose(part.rest)
-        off = (
-            math.dist(s.pose.position, pose.position) > cfg.move_m
-            or _yaw_apart(s.pose.yaw, pose.yaw) > cfg.move_yaw
-        )
+        held = self._in_hand(pose)
+        apart = math.dist(s.pose.position, pose.position)
+        turned = _yaw_apart(s.pose.yaw, pose.yaw)
+        off = apart > (cfg.hand_move_m if held else cfg.move_m) or turned > cfg.move_yaw
         if not off:
-            part.rest.append(s)
-            part.last_rest = s.at
+            if len(part.rest) < cfg.rest_window:
+                part.rest.append(s)
+            if apart <= (cfg.hand_still_m if held else cfg.still_m) and turned <= cfg.still_yaw:
+                part.last_rest = s.at
             part.off.clear()
             return
         part.off.append(s)
@@ -185,7 +195,7 @@ class MoveWatch:
         """The move's end, once its latest sightings have kept still long enough."""
         cfg = self.settings
         latest = part.moving[-1]
-        in_hand = self.hand_x is not None and latest.pose.position[0] > self.hand_x
+        in_hand = self._in_hand(latest.pose)
         still_m = cfg.hand_still_m if in_hand else cfg.still_m
         first = len(part.moving) - 1
         while first > 0:

@@ -19,7 +19,7 @@ from app.responses.camera import camera_responses
 from app.sim.hands import TrueMove
 from app.sources.outcomes import FallbackSource, RandomSource
 from perception.observe import FrameObservation
-from perception.part_moves import MoveSettings, Pose, part_moves
+from perception.part_moves import MoveSettings, MoveWatch, Pose, part_moves
 from perception.pose import PartSighting
 from planner.scenario.loading import load_scenario
 from tests.plan_fixtures import SCENARIOS, default_plan
@@ -59,6 +59,26 @@ def test_scatter_a_bad_decode_and_a_hidden_part_are_no_moves() -> None:
             continue  # a hand over the code, then it is there again
         frames.append((at, seen("top", at, x, yaw=0.02 * math.cos(i))))
     assert part_moves(frames, hand_x=1.0) == []
+
+
+def test_a_slow_start_is_timed_from_its_last_still_frame_and_a_held_part_may_sway() -> None:
+    # From 1.0 s the part speeds up from rest (a hand starting slowly): 5 mm after
+    # 0.2 s, 2 cm after 0.4 s; it stops at 2.0 s.
+    frames = []
+    for i in range(90):
+        at = i / 30
+        t = min(max(0.0, at - 1.0), 1.0)
+        frames.append((at, seen("leg2", at, 0.5 + 0.125 * t * t)))
+    (move,) = part_moves(frames)
+    assert move.start == pytest.approx(1.0 + 0.267, abs=0.02)  # last within 1 cm of rest
+    assert move.end == pytest.approx(2.0, abs=0.04)
+    # Held past the bench's edge, the part sways by 2 cm: no move.
+    held, bench = MoveWatch(hand_x=1.5), MoveWatch()
+    for i in range(90):
+        sighting = seen("leg2", i / 30, 1.7 + 0.02 * math.sin(i / 3))
+        assert held.update(sighting) == [] and bench.update(sighting) == []
+    assert held.moving() == {}
+    assert "leg2" in bench.moving()  # on the bench the same sway is a move, never settling
 
 
 def test_a_part_gone_from_sight_ends_its_move_at_its_last_sighting() -> None:
