@@ -16,11 +16,14 @@ from app.execution.events import HUMAN, ExecutionEvent
 from app.execution.timing import WallTimeline
 from app.execution.walker import Executor
 from app.responses.camera import camera_responses
+from app.responses.sim_camera import SIM_SIZE, sim_scene
 from app.sim.hands import TrueMove
+from app.sources.bench_layout import bench_layout
 from app.sources.outcomes import FallbackSource, RandomSource
-from perception.observe import FrameObservation
+from perception.observe import BenchObserver, FrameObservation
 from perception.part_moves import MoveSettings, MoveWatch, Pose, part_moves
 from perception.pose import PartSighting
+from perception.sim import Degradation, SimulatedCamera
 from planner.scenario.loading import load_scenario
 from tests.plan_fixtures import SCENARIOS, default_plan
 
@@ -87,6 +90,27 @@ def test_a_part_gone_from_sight_ends_its_move_at_its_last_sighting() -> None:
     (move,) = part_moves(frames, MoveSettings())
     assert move.ended == "vanished" and move.to_pose is None
     assert (move.start, move.end) == (pytest.approx(10 / 30), pytest.approx(19 / 30))
+
+
+def test_a_still_bench_in_noisy_frames_shows_no_move() -> None:
+    """Rendered with blur, sensor noise, gain and light changes, every code's sighting
+    scatters by a millimetre or two, now and then by metres (a frame whose camera
+    pose is off): neither is a move."""
+    scenario = load_scenario(SCENARIOS / "default.toml")
+    layout = bench_layout(scenario)
+    noisy = Degradation(blur_px=1.2, noise=6.0, gain=(0.85, 1.15), light_jitter=0.1, seed=1)
+    watch = MoveWatch(hand_x=layout.human_side_x)
+    with SimulatedCamera(sim_scene(scenario), size=SIM_SIZE, degradation=noisy) as camera:
+        observer = BenchObserver(
+            camera.intrinsics, layout.references, layout.marker_size_m, layout.bench_top_z
+        )
+        sightings = 0
+        for _ in range(90):
+            observation = observer.observe(camera.read())
+            sightings += len(observation.sightings)
+            assert watch.update(observation) == []
+            assert watch.moving() == {}
+    assert sightings > 180  # two codes a frame at least, of five
 
 
 def match(truth: TrueMove, events: list[ExecutionEvent]) -> ExecutionEvent | None:
