@@ -3,20 +3,23 @@ through the path a webcam's frames take (a `LiveCamera` thread, perception, the
 watch of the human's actions), while a seeded simulated human moves parts over a
 person's time; the execution runs on the wall clock. Every move the simulated
 human really made is a `human` event of source camera whose start and end are
-each within 0.3 s of the truth, and the robot's moves are none."""
+each within 0.3 s of the truth, a surprise too, and the robot's moves are none."""
 
 from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 import pytest
 
-from app.execution.events import HUMAN, ExecutionEvent
+from app.execution.events import HUMAN, REPAIR, ExecutionEvent
+from app.execution.repair import Repairer
 from app.execution.timing import WallTimeline
 from app.execution.walker import Executor
 from app.responses.camera import camera_responses
 from app.responses.sim_camera import SIM_SIZE, sim_scene
+from app.sessions.store import SessionStore
 from app.sim.hands import TrueMove
 from app.sources.bench_layout import bench_layout
 from app.sources.outcomes import FallbackSource, RandomSource
@@ -25,10 +28,11 @@ from perception.part_moves import MoveSettings, MoveWatch, Pose, part_moves
 from perception.pose import PartSighting
 from perception.sim import Degradation, SimulatedCamera
 from planner.scenario.loading import load_scenario
+from tests.camera_runs import PutsItDownInstead
 from tests.plan_fixtures import SCENARIOS, default_plan
 
 TOLERANCE_S = 0.3
-SEED = 0  # takes foot2 and attaches it, takes leg2, puts it down, takes and attaches it
+SEED = 0  # takes foot2, is asked where it attached it, takes leg2
 
 
 def seen(part: str, at: float, x: float, yaw: float = 0.0) -> FrameObservation:
@@ -124,26 +128,31 @@ def match(truth: TrueMove, events: list[ExecutionEvent]) -> ExecutionEvent | Non
     return min(named, key=error, default=None)
 
 
-def test_the_camera_times_each_human_action_in_real_time() -> None:
+def test_the_camera_times_each_human_action_in_real_time(tmp_path: Path) -> None:
+    """The human takes a part, puts it down where the plan asks where it was attached
+    (a surprise: the robot plans again), and takes and attaches parts after."""
     scenario = load_scenario(SCENARIOS / "default.toml")
     plan = default_plan()
-    camera = camera_responses("sim", scenario, plan, SEED, real_time=True)
-    assert camera.human is not None and camera.human.world.hands is not None
+    camera = camera_responses("sim", scenario, plan, SEED, real_time=True, human=PutsItDownInstead)
+    assert isinstance(camera.human, PutsItDownInstead) and camera.human.world.hands is not None
     hands = camera.human.world.hands
-    executor = Executor(
-        plan, FallbackSource(camera.source, RandomSource(SEED)), camera.listeners,
-        timeline=WallTimeline(),
-    )  # fmt: skip
     began = time.monotonic()
-    try:
-        assert executor.run() == "goal"
-        hands.wait()
-        time.sleep(1.0)  # the last move settles in the camera's view
-    finally:
-        camera.close()
+    with SessionStore(tmp_path) as store:
+        executor = Executor(
+            plan, FallbackSource(camera.source, RandomSource(SEED)), camera.listeners,
+            timeline=WallTimeline(), repairing=Repairer(scenario, store.add_plan).repair,
+        )  # fmt: skip
+        try:
+            assert executor.run() == "goal"
+            hands.wait()
+            time.sleep(1.0)  # the last move settles in the camera's view
+        finally:
+            camera.close()
     seconds = time.monotonic() - began
+    assert camera.human.surprised_at is not None
+    assert any(e.kind == REPAIR and e.source == "camera" for e in executor.events)
     truths = hands.moves
-    assert {t.action for t in truths} >= {"take", "attach"}, truths
+    assert {t.action for t in truths} == {"take", "putdown", "attach"}, truths
     observed = [e for e in executor.events if e.kind == HUMAN and e.source == "camera"]
     errors: list[tuple[str, float, float]] = []
     for truth in truths:

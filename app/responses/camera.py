@@ -96,11 +96,13 @@ def camera_responses(
     calibration: CameraIntrinsics | None = None,
     *,
     real_time: bool = False,
+    human: Callable[[Plan, SimulatedWorld, int | None], SimulatedHuman] = SimulatedHuman,
 ) -> CameraResponses:
     """The camera source for `camera:SOURCE`; `SourceError` if the source cannot be
     opened. `real_time` plays the simulated camera as a webcam is read (for a run on
     the wall clock): in its own thread at 30 frames a second, while the simulated
-    human's hands take their time."""
+    human's hands take their time. `human` makes the simulated human (a test may make
+    one who does what the plan does not expect)."""
     layout = bench_layout(scenario)
     if spec != "sim":
         real = open_real_camera(spec, calibration)
@@ -115,13 +117,13 @@ def camera_responses(
         live = LiveCamera(camera, camera.camera.intrinsics, scenario, name="sim", simulated=camera)
         hands = PacedHands(live, seed)
         world = SimulatedWorld(part_boxes(scenario), layout, live, hands)
-        human = SimulatedHuman(plan, world, seed)
-        source, watch = watched(live.start(), human)
-        return CameraResponses(source, [human.on_event, watch.on_event], camera, live, watch, human)
+        actor = human(plan, world, seed)
+        source, watch = watched(live.start(), actor)
+        return CameraResponses(source, [actor.on_event, watch.on_event], camera, live, watch, actor)
     world = SimulatedWorld(part_boxes(scenario), layout, camera)
-    human = SimulatedHuman(plan, world, seed)
+    actor = human(plan, world, seed)
     feed = PulledFeed(camera, BenchPerception(camera.camera.intrinsics, layout))
-    return CameraResponses(CameraSource(feed, human), [human.on_event], camera, human=human)
+    return CameraResponses(CameraSource(feed, actor), [actor.on_event], camera, human=actor)
 
 
 class LiveAnswers:

@@ -289,7 +289,6 @@ class SimulatedHuman:
             label = self._decide(node_id, node, options)
         finally:
             self._wanted = None
-        self.world.settle()  # the camera looks once the hands are done
         if label is None:
             return None
         self.did[node_id] = label
@@ -298,8 +297,10 @@ class SimulatedHuman:
 
     # --- before the camera looks (app.sources.camera.BeforeLook) --------------------
     def before_look(self, node_id: str, node: PlanNode, options: Sequence[str]) -> bool:
-        """Acts out a seeded outcome at a sensing node; the camera then has to see it."""
+        """Acts out a seeded outcome at a sensing node; the camera then has to see it,
+        once the hands are done."""
         self.act(node_id, node, options)
+        self.world.settle()
         return True
 
     def truth(self, node_id: str) -> str | None:
@@ -437,6 +438,7 @@ class DirectedHuman:
         if wanted is None:
             return False  # no click (an abort): nothing happened to look at
         self.human.act(node_id, node, options, wanted.label)
+        self.human.world.settle()
         return True
 
     def truth(self, node_id: str) -> str | None:
