@@ -47,13 +47,15 @@ MoveEnd = Literal["settled", "vanished"]
 
 @dataclass(frozen=True)
 class MoveSettings:
-    # A still code's sightings in a clean 640 px frame scatter by about a millimetre
-    # and a real webcam's by a few; a part a person moves goes centimetres: 1.5 cm
-    # is well above the scatter and well below the smallest part (4 cm).
+    # A still code's sightings in 640 px frames rendered with blur, noise, gain and
+    # light changes lie within 1-2 mm of their median (95 %; yaw within 0.1 deg); a
+    # part a person moves goes centimetres: 1.5 cm is well above the scatter, with
+    # room for a real webcam's, and well below the smallest part (4 cm).
     move_m: float = 0.015
-    # A code's yaw scatters by a degree or two; a part turned by hand turns by tens.
+    # A part turned by hand turns by tens of degrees.
     move_yaw: float = math.radians(15.0)
-    # Two sightings off the pose in a row: a single bad decode is no move.
+    # Two sightings off the pose in a row: now and then one frame's camera pose is
+    # off and puts every code metres away; that is no move.
     confirm_frames: int = 2
     # Still: within 1 cm of the latest sighting (a slow hand moves more than that in
     # a few frames) for 0.3 s and 3 frames (a hand pausing mid-move is shorter).
