@@ -8,16 +8,18 @@ and the exit on SIGTERM use a node of their own on a master of their own.
 from __future__ import annotations
 
 import importlib
+import json
 import subprocess
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import pytest
 
 from app.robot.ros_env import RosMaster, free_port
+from app.robot.sim_gripper import PART_POSITION
 from planner.feasibility.arms import HOME, joint_names
 from tests.robot_graph import (
     ROOT,
@@ -215,29 +217,77 @@ def test_an_injected_abort_stops_the_next_goal_halfway(graph: Graph) -> None:
     assert start[2] + 0.1 < e0 < target[2] - 0.1  # halfway: 0.4 rad
 
 
-def test_the_grippers_grip_and_release(graph: Graph) -> None:
-    states: list[Any] = []
-    topic = "/robot/end_effector/right_gripper/state"
-    subscriber = graph.rospy.Subscriber(topic, graph.baxter.EndEffectorState, states.append)
-    try:
-        for command, position, gripping in (("grip", 0.0, 1), ("release", 100.0, 0)):
-            graph.grippers["right"].publish(
-                graph.baxter.EndEffectorCommand(
-                    id=65538, command=command, sender="test", sequence=7
-                )
+class GripperStates:
+    """The states one gripper publishes, heard from here."""
+
+    def __init__(self, g: Graph, side: str) -> None:
+        self.g, self.side = g, side
+        self.states: list[Any] = []
+        self._subscriber = g.rospy.Subscriber(
+            f"/robot/end_effector/{side}_gripper/state",
+            g.baxter.EndEffectorState,
+            self.states.append,
+        )
+
+    def send(self, command: str, args: str = "", sequence: int = 1, id: int = 65538) -> None:
+        self.g.grippers[self.side].publish(
+            self.g.baxter.EndEffectorCommand(
+                id=id, command=command, args=args, sender="test", sequence=sequence
             )
-            deadline = time.monotonic() + 10.0
-            while not (
-                states
-                and states[-1].position == position
-                and states[-1].gripping == gripping
-                and states[-1].command == command
-            ):
-                assert time.monotonic() < deadline, f"{command}: {states[-1:]}"
-                time.sleep(0.02)
-            assert states[-1].command_sender == "test" and states[-1].command_sequence == 7
+        )
+
+    def until(self, fits: Callable[[Any], bool], timeout_s: float = 10.0) -> Any:
+        began = time.monotonic()
+        while not (self.states and fits(self.states[-1])):
+            assert time.monotonic() - began < timeout_s, f"{self.side}: {self.states[-1:]}"
+            time.sleep(0.02)
+        return self.states[-1]
+
+    def close(self) -> None:
+        self._subscriber.unregister()
+
+
+def test_an_electric_gripper_refuses_go_until_calibrated_then_goes(graph: Graph) -> None:
+    right = GripperStates(graph, "right")
+    try:
+        right.send("clear_calibration", sequence=1)
+        right.until(lambda s: s.command_sequence == 1 and s.calibrated == 0)
+        right.send("go", json.dumps({"position": 0.0}), sequence=2)
+        refused = right.until(lambda s: s.error == 1)
+        assert refused.position == 100.0 and refused.moving == 0 and refused.ready == 0
+        # Handled, with the error flag: the state acknowledges it.
+        assert refused.command == "go" and refused.command_sequence == 2
+        right.send("calibrate", sequence=3)
+        calibrated = right.until(lambda s: s.calibrated == 1 and s.ready == 1)
+        assert calibrated.error == 0 and calibrated.command == "calibrate"
+        assert calibrated.command_sender == "test" and calibrated.command_sequence == 3
+        right.send("go", json.dumps({"position": 0.0}), sequence=4)
+        moving = right.until(lambda s: s.moving == 1)
+        assert 30.0 < moving.position < 100.0
+        # No part is simulated: closing fingers meet one at PART_POSITION.
+        held = right.until(lambda s: s.gripping == 1 and s.moving == 0)
+        assert held.position == pytest.approx(PART_POSITION) and held.force > 0.0
+        right.send("go", json.dumps({"position": 100.0}), sequence=5)
+        opened = right.until(lambda s: s.position == 100.0 and s.moving == 0)
+        assert opened.gripping == 0 and opened.command_sequence == 5
     finally:
-        subscriber.unregister()
+        right.close()
+
+
+def test_a_gripper_ignores_another_id_and_grip_on_an_electric_gripper(graph: Graph) -> None:
+    left = GripperStates(graph, "left")
+    try:
+        left.send("calibrate", sequence=10)
+        left.until(lambda s: s.calibrated == 1 and s.ready == 1 and s.command_sequence == 10)
+        left.send("go", json.dumps({"position": 0.0}), sequence=11, id=65537)
+        left.send("grip", sequence=12)
+        time.sleep(0.5)
+        left.send("go", json.dumps({"position": 60.0}), sequence=13)
+        state = left.until(lambda s: s.command_sequence == 13 and s.moving == 0)
+        assert state.position == pytest.approx(60.0) and state.gripping == 0
+        assert [s.command_sequence for s in left.states if s.command_sequence in (11, 12)] == []
+    finally:
+        left.close()
 
 
 def test_mute_stops_the_joint_states_and_unmute_resumes_them(graph: Graph) -> None:

@@ -1,9 +1,10 @@
 """`tandem robot sim`: a simulated Baxter on ROS 1, for `tandem execute --robot ros`.
 
-The node (`app.robot.sim_node`) serves Baxter's joint states, trajectory
-actions and grippers on the master given with `--master` (default
-`$ROS_MASTER_URI`). It needs ROS 1 (`make robot`); a missing ROS or master is
-one line and exit code 2. It runs until Ctrl-C or SIGTERM.
+The node (`app.robot.sim_node`) serves Baxter's joint states, endpoint states,
+robot state (enable, stop, reset, e-stop), trajectory actions and grippers on
+the master given with `--master` (default `$ROS_MASTER_URI`). It needs ROS 1
+(`make robot`); a missing ROS or master is one line and exit code 2. It runs
+until Ctrl-C or SIGTERM.
 """
 
 from __future__ import annotations
@@ -11,10 +12,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
+from typing import Literal
 
 from app.cli.exit_codes import BadInput
+from app.robot.sim_gripper import GripperKind  # no ROS nor pybullet: only the kinds
 
 DEFAULT_MASTER = "http://localhost:11311"  # ROS 1's own default
+ArmSide = Literal["left", "right"]
+ARM_SIDES: tuple[ArmSide, ArmSide] = ("left", "right")
 
 
 def register(parser: argparse.ArgumentParser) -> None:
@@ -44,6 +49,21 @@ def register(parser: argparse.ArgumentParser) -> None:
         "e.g. '{\"left_s0\": 0.3}' (the others at home)",
     )
     sim.add_argument(
+        "--enabled",
+        choices=["yes", "no"],
+        default="yes",
+        help="whether the robot starts enabled (default yes; no: as Baxter boots, "
+        "disabled until /robot/set_super_enable)",
+    )
+    sim.add_argument(
+        "--gripper",
+        action="append",
+        default=[],
+        metavar="KIND|SIDE=KIND",
+        help="the grippers: electric (the default) or suction, for both sides or one "
+        "(e.g. --gripper right=suction); repeatable",
+    )
+    sim.add_argument(
         "--gui", choices=["no", "yes"], default="no", help="show pybullet's window (default no)"
     )
     sim.set_defaults(run=run_sim_command)
@@ -69,10 +89,27 @@ def start_joints(text: str) -> dict[str, float] | None:
     return {name: float(value) for name, value in joints.items()}
 
 
+def gripper_kinds(values: list[str]) -> dict[ArmSide, GripperKind]:
+    """`--gripper`'s kinds per side (both electric unless said)."""
+    kinds: dict[ArmSide, GripperKind] = {"left": "electric", "right": "electric"}
+    for value in values:
+        side, _, name = value.rpartition("=")
+        if name not in ("electric", "suction"):
+            raise BadInput(f"--gripper {value}: the kind is electric or suction")
+        if side not in ("", "left", "right"):
+            raise BadInput(f"--gripper {value}: the side is left or right")
+        kind: GripperKind = "suction" if name == "suction" else "electric"
+        for each in ARM_SIDES:
+            if side in ("", each):
+                kinds[each] = kind
+    return kinds
+
+
 def run_sim_command(args: argparse.Namespace) -> int:
     if args.rate <= 0:
         raise BadInput(f"--rate {args.rate}: must be positive")
     start = start_joints(args.start)
+    grippers = gripper_kinds(args.gripper)
     master = args.master or os.environ.get("ROS_MASTER_URI") or DEFAULT_MASTER
     # ROS and pybullet load only for this command.
     from app.robot.ros_env import RosMissing
@@ -80,6 +117,14 @@ def run_sim_command(args: argparse.Namespace) -> int:
     from app.robot.sim_node import NoMaster, SimSettings, run_sim
 
     try:
-        return run_sim(SimSettings(master, args.rate, start, args.gui == "yes"))
+        settings = SimSettings(
+            master,
+            args.rate,
+            start,
+            args.gui == "yes",
+            enabled=args.enabled == "yes",
+            grippers=grippers,
+        )
+        return run_sim(settings)
     except (RosMissing, NoMaster, StartBeyondLimits) as err:
         raise BadInput(str(err)) from err

@@ -8,7 +8,7 @@ packaged: their definitions ship in `ros_definitions/`, and genpy turns them
 (with an action's expansion into its seven messages, as actionlib's genaction
 does) into Python classes in the cache folder, keyed by a hash of the
 definitions, on first use. The dependencies' definitions (std_msgs/Header,
-trajectory_msgs, actionlib_msgs) are read from the installed classes, so the
+trajectory_msgs, actionlib_msgs, geometry_msgs) are read from the installed classes, so the
 checksums agree with the rest of the graph by construction.
 
 Nothing here imports ROS at module level: the rest of Tandem runs without it.
@@ -46,6 +46,9 @@ INSTALLED_DEPENDENCIES = (
     "trajectory_msgs/JointTrajectoryPoint",
     "actionlib_msgs/GoalID",
     "actionlib_msgs/GoalStatus",
+    "geometry_msgs/Pose",  # baxter_core_msgs/EndpointState
+    "geometry_msgs/Twist",
+    "geometry_msgs/Wrench",
 )
 _SECTION = "\n" + "=" * 80 + "\nMSG: "  # between the definitions in a class's _full_text
 MASTER_WAIT_S = 30.0
@@ -70,7 +73,8 @@ def use_ros() -> None:
         if importlib.util.find_spec("rospy") is None and DEBIAN_DIST_PACKAGES.is_dir():
             sys.path.append(str(DEBIAN_DIST_PACKAGES))
             importlib.invalidate_caches()
-        for module in ("rospy", "actionlib", "genpy", "genmsg", "trajectory_msgs", "sensor_msgs"):
+        needed = ("rospy", "actionlib", "genpy", "genmsg", "trajectory_msgs", "sensor_msgs")
+        for module in (*needed, "geometry_msgs"):
             if importlib.util.find_spec(module) is None:
                 raise RosMissing(f"ROS 1 is not installed (no {module}): run `make robot`")
         generated = str(message_dir())

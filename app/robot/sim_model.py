@@ -1,28 +1,33 @@
 """The simulated Baxter's body, without ROS: pybullet's Baxter moved kinematically,
 the URDF's joint limits, the checks a trajectory passes before it moves, and the
-electric grippers.
+grippers (`app.robot.sim_gripper`).
 
 `tandem robot sim` (`app.robot.sim_node`) serves this body over Baxter's ROS
-interface. A trajectory is followed by linear interpolation between its points
-at their `time_from_start`, starting from where the arm is at time 0.
+interface. A trajectory is followed along the real server's spline through its
+points at their `time_from_start` (`app.robot.sim_spline`), starting from where
+the arm is at time 0. The joint efforts are the gravity torques of the URDF's
+masses where the arm is (an arm at rest carries its own weight), and each
+gripper's endpoint pose and twist come from the URDF's forward kinematics.
 """
 
 from __future__ import annotations
 
-import bisect
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
+from app.robot.sim_gripper import Gripper, GripperKind
+from app.robot.sim_spline import BezierSpline
 from planner.feasibility._bullet import pb, silenced  # pybullet without its stdout chatter
 from planner.feasibility.arms import ARMS, HOME, joint_names
 from planner.feasibility.robot import baxter_urdf
 
 Side = Literal["left", "right"]
+SIDES: tuple[Side, Side] = ("left", "right")
 # Why a trajectory is refused before it moves (control_msgs' error codes' names).
 RejectCode = Literal["INVALID_JOINTS", "INVALID_GOAL"]
-GripperCommand = Literal["grip", "release"]
 
 # Allowance over the URDF's velocity limits: waypoint times are rounded (to the
 # nanosecond in the message, to the millisecond by some planners), and a segment
@@ -32,13 +37,14 @@ POSITION_TOLERANCE = 1e-4  # rad beyond a position limit, for rounding
 # A first waypoint at time 0 may sit this far from where the arm is (a jump a real
 # controller absorbs); farther, the trajectory does not start where the arm is.
 START_TOLERANCE = 0.05  # rad
-GRIPPER_SECONDS = 0.4  # fully open to closed
 GRIPPER_OPENING_M = 0.020833  # each finger's travel (the URDF's finger limits)
 FINGERS = {
     "left": ("l_gripper_l_finger_joint", "l_gripper_r_finger_joint"),
     "right": ("r_gripper_l_finger_joint", "r_gripper_r_finger_joint"),
 }
 ARM_JOINTS = tuple(name for arm in ARMS for name in joint_names(arm))
+ENDPOINT_LINKS = {"left": "left_gripper", "right": "right_gripper"}  # Baxter's endpoint frames
+GRAVITY = 9.81  # m/s^2
 HOME_JOINTS = {name: q for arm in ARMS for name, q in zip(joint_names(arm), HOME[arm], strict=True)}
 
 
@@ -51,6 +57,20 @@ class JointLimit:
     lower: float
     upper: float
     velocity: float  # rad/s
+
+
+Vector = tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """A gripper's endpoint frame: position (m), orientation (x, y, z, w), and
+    linear (m/s) and angular (rad/s) velocity, in the base frame."""
+
+    position: Vector
+    orientation: Vector
+    linear: Vector
+    angular: Vector
 
 
 @dataclass(frozen=True)
@@ -72,15 +92,23 @@ class Motion:
     def seconds(self) -> float:
         return self.times[-1]
 
-    def at(self, t: float) -> tuple[float, ...]:
-        """The positions `t` seconds in (linear between waypoints; the last one after)."""
-        if t >= self.times[-1]:
-            return self.points[-1]
-        i = max(bisect.bisect_right(self.times, t) - 1, 0)
-        t0, t1 = self.times[i], self.times[i + 1]
-        share = (t - t0) / (t1 - t0)
-        before, after = self.points[i], self.points[i + 1]
-        return tuple(a + (b - a) * share for a, b in zip(before, after, strict=True))
+    @cached_property
+    def spline(self) -> BezierSpline:
+        """The path commanded between the waypoints (the real server's spline)."""
+        return BezierSpline(self.times, self.points)
+
+    def at(self, t: float) -> tuple[dict[str, float], dict[str, float]]:
+        """The commanded positions and velocities `t` seconds in (the last point,
+        at rest, after the end)."""
+        position, velocity = self.spline.at(t)
+        return (
+            dict(zip(self.joints, position.tolist(), strict=True)),
+            dict(zip(self.joints, velocity.tolist(), strict=True)),
+        )
+
+    @property
+    def last(self) -> dict[str, float]:
+        return dict(zip(self.joints, self.points[-1], strict=True))
 
 
 def check_motion(
@@ -158,37 +186,20 @@ def _too_fast(
     return None
 
 
-@dataclass
-class Gripper:
-    """One electric gripper: opening in percent (0 closed, 100 open) and its last command."""
-
-    position: float = 100.0
-    target: float = 100.0
-    # No object is simulated: a grip is taken to hold what the plan says it holds.
-    gripping: bool = False
-    command: str = ""
-    sender: str = ""
-    sequence: int = 0
-
-    @property
-    def moving(self) -> bool:
-        return self.position != self.target
-
-    def step(self, seconds: float) -> None:
-        reach = 100.0 * seconds / GRIPPER_SECONDS
-        delta = self.target - self.position
-        self.position = (
-            self.target if abs(delta) <= reach else self.position + reach * (1 if delta > 0 else -1)
-        )
-
-
 class BaxterModel:
     """Baxter in pybullet (DIRECT, or a window), its joints set kinematically; safe
     to use from several threads."""
 
-    def __init__(self, start: Mapping[str, float] | None = None, gui: bool = False) -> None:
+    def __init__(
+        self,
+        start: Mapping[str, float] | None = None,
+        gui: bool = False,
+        grippers: Mapping[Side, GripperKind] | None = None,
+    ) -> None:
         self._lock = threading.Lock()
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
+        # Only for the efforts' inverse dynamics: the body is never simulated.
+        pb.setGravity(0.0, 0.0, -GRAVITY, physicsClientId=self.client)
         with silenced():  # "No inertial data" warnings for the massless frames
             self.body = pb.loadURDF(
                 str(baxter_urdf()),
@@ -198,14 +209,18 @@ class BaxterModel:
             )
         self.index: dict[str, int] = {}
         self.limits: dict[str, JointLimit] = {}
+        self.links: dict[str, int] = {}  # a link's index is its parent joint's
         for j in range(pb.getNumJoints(self.body, physicsClientId=self.client)):
             info = pb.getJointInfo(self.body, j, physicsClientId=self.client)
+            self.links[info[12].decode()] = j
             if info[2] != pb.JOINT_FIXED:
                 name = info[1].decode()
                 self.index[name] = j
                 self.limits[name] = JointLimit(float(info[8]), float(info[9]), float(info[11]))
         self.names = (*ARM_JOINTS, *FINGERS["left"], *FINGERS["right"])
-        self.grippers: dict[Side, Gripper] = {"left": Gripper(), "right": Gripper()}
+        kinds: dict[Side, GripperKind] = {"left": "electric", "right": "electric"}
+        kinds.update(grippers or {})
+        self.grippers: dict[Side, Gripper] = {side: Gripper(kinds[side]) for side in SIDES}
         self._velocity = dict.fromkeys(self.names, 0.0)
         joints = {**HOME_JOINTS, **(start or {})}
         outside = [n for n, v in joints.items() if not _within(self.limits[n], v)]
@@ -218,8 +233,11 @@ class BaxterModel:
     def set(self, joints: Mapping[str, float], velocity: Mapping[str, float] | None = None) -> None:
         with self._lock:
             for name, value in joints.items():
-                pb.resetJointState(self.body, self.index[name], value, physicsClientId=self.client)
-                self._velocity[name] = (velocity or {}).get(name, 0.0)
+                speed = (velocity or {}).get(name, 0.0)
+                pb.resetJointState(
+                    self.body, self.index[name], value, speed, physicsClientId=self.client
+                )
+                self._velocity[name] = speed
 
     def positions(self) -> dict[str, float]:
         with self._lock:
@@ -232,22 +250,51 @@ class BaxterModel:
         with self._lock:
             return dict(self._velocity)
 
-    def command_gripper(self, side: Side, command: GripperCommand, sender: str, seq: int) -> None:
+    def efforts(self) -> dict[str, float]:
+        """Each joint's torque (N m) holding the arms where they are against gravity."""
         with self._lock:
-            gripper = self.grippers[side]
-            gripper.target = 0.0 if command == "grip" else 100.0
-            gripper.gripping = command == "grip"
-            gripper.command, gripper.sender, gripper.sequence = command, sender, seq
+            order = sorted(self.index, key=self.index.__getitem__)
+            states = pb.getJointStates(
+                self.body, [self.index[n] for n in order], physicsClientId=self.client
+            )
+            torques = pb.calculateInverseDynamics(
+                self.body,
+                [float(s[0]) for s in states],
+                [float(s[1]) for s in states],
+                [0.0] * len(order),
+                physicsClientId=self.client,
+            )
+        effort = dict(zip(order, (float(t) for t in torques), strict=True))
+        return {name: effort[name] for name in self.names}
+
+    def endpoint(self, side: Side) -> Endpoint:
+        """The gripper's endpoint frame in the base frame, and its twist."""
+        with self._lock:
+            state = pb.getLinkState(
+                self.body,
+                self.links[ENDPOINT_LINKS[side]],
+                computeLinkVelocity=1,
+                computeForwardKinematics=1,
+                physicsClientId=self.client,
+            )
+        position, orientation, linear, angular = state[4], state[5], state[6], state[7]
+        return Endpoint(
+            tuple(position), tuple(orientation), tuple(linear), tuple(angular)
+        )  # fmt: skip
 
     def step_grippers(self, seconds: float) -> None:
         for side, gripper in self.grippers.items():
-            if gripper.moving:
-                with self._lock:
-                    gripper.step(seconds)
+            was = gripper.position
+            gripper.step(seconds)
+            if gripper.position != was:
                 self._place_fingers(side)
 
     def _place_fingers(self, side: Side) -> None:
-        opening = self.grippers[side].position / 100.0 * GRIPPER_OPENING_M
+        """The electric gripper's fingers where its position says (a suction cup's
+        stay open: the URDF has the electric gripper's fingers)."""
+        gripper = self.grippers[side]
+        percent = gripper.position if gripper.kind == "electric" else 100.0
+        opening = percent / 100.0 * GRIPPER_OPENING_M
         left_finger, right_finger = FINGERS[side]
         self.set({left_finger: opening, right_finger: -opening})
 

@@ -1,29 +1,40 @@
 """`tandem robot sim`: a ROS 1 node serving Baxter's interface on a simulated body.
 
-What it serves (the topics and actions of Baxter's own robot, so a setup is
-checked end to end without it):
+What it serves (the topics and actions of Baxter's own robot, with the message
+definitions Rethink published, so a setup is checked end to end without it):
 
 - `/robot/joint_states` (sensor_msgs/JointState): the 14 arm joints
-  (`left_s0` ... `right_w2`) and the 4 finger joints, at `rate` Hz;
+  (`left_s0` ... `right_w2`) and the 4 finger joints, with position, velocity
+  and effort (the gravity torques where the arm is), at `rate` Hz;
+- `/robot/limb/<side>/endpoint_state` (baxter_core_msgs/EndpointState): the
+  gripper's endpoint pose and twist in the base frame (forward kinematics of
+  the URDF), wrench zero, at `rate` Hz;
+- `/robot/state` (AssemblyState) with `/robot/set_super_enable`, `_stop` and
+  `_reset`; the grippers' `state`, `properties` and `command` (electric by
+  default, or suction per side); the e-stop and stall drills on
+  `/tandem_sim/estop` and `/tandem_sim/stall`: see `app.robot.sim_topics`;
 - `/robot/limb/<side>/follow_joint_trajectory`
-  (control_msgs/FollowJointTrajectoryAction): the trajectory is followed at its
-  waypoints' `time_from_start` (from its header's stamp when that is in the
-  future), interpolated at the publish rate, then succeeds. A goal is aborted
-  before moving (INVALID_JOINTS, or INVALID_GOAL with the joint named) when it
-  names joints not of that arm, or breaks the URDF's position or velocity limits
-  (the allowances are in `app.robot.sim_model`). A cancel, or a newer goal,
-  stops the arm where it is within one tick (preempted);
-- `/robot/end_effector/<side>_gripper/command` (baxter_core_msgs/
-  EndEffectorCommand, "grip" or "release") and `.../state` (EndEffectorState:
-  position 0 closed - 100 open, gripping) at `GRIPPER_STATE_HZ`.
+  (control_msgs/FollowJointTrajectoryAction): the trajectory is followed along
+  the real server's cubic Bézier spline through its waypoints at their
+  `time_from_start` (from its header's stamp when that is in the future), with
+  the real server's tolerances, goal time and goal check, and its behaviour on a
+  disabled or stopped robot (`app.robot.sim_follow`: such a goal SUCCEEDS
+  without arriving unless it carries goal tolerances). Beyond the real server,
+  a goal is aborted before moving (INVALID_JOINTS, or INVALID_GOAL with the
+  joint named) when it names joints not of that arm, or its waypoints break the
+  URDF's position or velocity limits (the allowances are in
+  `app.robot.sim_model`); the spline is held within the position limits. A
+  cancel, or a newer goal, stops the arm where it is within one tick
+  (preempted).
 
 Faults for tests, on `/tandem_sim/fault` (std_msgs/String): "abort" aborts the
 running goals (PATH_TOLERANCE_VIOLATED), or when none runs the next one halfway
 through; "mute" stops publishing joint states, "unmute" resumes them.
 
-The node prints `simulated Baxter ready on <master>` once it has received its
-own first joint state through the master (the graph works end to end), and
-exits with 0 on SIGINT or SIGTERM, stopping any motion.
+The node sets the parameter `/rethink/software_version` (1.2.0) as Baxter does,
+prints `simulated Baxter ready on <master>` once it has received its own first
+joint state through the master (the graph works end to end), and exits with 0
+on SIGINT or SIGTERM, stopping any motion.
 """
 
 from __future__ import annotations
@@ -34,27 +45,35 @@ import signal
 import threading
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import FrameType
 from typing import Any
 from urllib.parse import urlparse
 
 from app.robot.ros_env import master_answers, use_ros
-from app.robot.sim_model import (
-    BaxterModel,
-    Motion,
-    Rejection,
-    Side,
-    check_motion,
+from app.robot.sim_follow import (
+    Tolerances,
+    goal_error,
+    path_error,
+    stall,
+    stalled_joint,
+    tolerances,
 )
+from app.robot.sim_gripper import GripperKind
+from app.robot.sim_model import SIDES, BaxterModel, Motion, Rejection, Side, check_motion
+from app.robot.sim_robot_state import RobotState
+from app.robot.sim_topics import PROPERTIES_HZ, STATE_HZ, RobotTopics
 
 NODE_NAME = "tandem_sim_baxter"
-GRIPPER_STATE_HZ = 10.0
-GRIPPER_ID = 65538  # Baxter's electric gripper's hardware id
+SOFTWARE_VERSION = "1.2.0"  # the robot software baxter_interface 1.2.0 checks for
 READY_TIMEOUT_S = 30.0
 # control_msgs/FollowJointTrajectoryResult's error codes.
-ERROR_CODES = {"INVALID_GOAL": -1, "INVALID_JOINTS": -2, "PATH_TOLERANCE_VIOLATED": -4}
-SIDES: tuple[Side, Side] = ("left", "right")
+ERROR_CODES = {
+    "INVALID_GOAL": -1,
+    "INVALID_JOINTS": -2,
+    "PATH_TOLERANCE_VIOLATED": -4,
+    "GOAL_TOLERANCE_VIOLATED": -5,
+}
 
 
 class NoMaster(RuntimeError):
@@ -67,14 +86,22 @@ class SimSettings:
     rate: float = 100.0  # joint states per second, and trajectory ticks
     start: Mapping[str, float] | None = None  # None: Baxter's home pose (the plan's start)
     gui: bool = False  # pybullet's window
+    enabled: bool = True  # enabled at start (as after Rethink's enable_robot.py -e)
+    grippers: Mapping[Side, GripperKind] = field(
+        default_factory=lambda: {"left": "electric", "right": "electric"}
+    )
 
 
 class SimNode:
     """The node's ROS side: its publishers, subscribers and two action servers."""
 
-    def __init__(self, settings: SimSettings, model: BaxterModel, stop: threading.Event) -> None:
+    def __init__(
+        self, settings: SimSettings, model: BaxterModel, robot: RobotState, stop: threading.Event
+    ) -> None:
         self.settings = settings
         self.model = model
+        self.robot = robot
+        self.topics = RobotTopics(robot, model.grippers)
         self.stop = stop
         self.tick_s = 1.0 / settings.rate
         self.muted = False
@@ -85,7 +112,7 @@ class SimNode:
         self._lock = threading.Lock()
         self.ros: dict[str, Any] = {}
         self._servers: dict[Side, Any] = {}
-        self._gripper_states: dict[Side, Any] = {}
+        self._endpoints: dict[Side, Any] = {}
         self._echo = threading.Event()  # our own first joint state came back
 
     def connect(self) -> None:
@@ -99,22 +126,17 @@ class SimNode:
             "baxter": importlib.import_module("baxter_core_msgs.msg"),
         }
         rospy.init_node(NODE_NAME, argv=[NODE_NAME], disable_signals=True)
+        rospy.set_param("/rethink/software_version", SOFTWARE_VERSION)
         sensor, std, baxter = self.ros["sensor"], self.ros["std"], self.ros["baxter"]
         self._joints = rospy.Publisher("/robot/joint_states", sensor.JointState, queue_size=10)
         self._echo_sub = rospy.Subscriber(
             "/robot/joint_states", sensor.JointState, lambda _: self._echo.set(), queue_size=1
         )
         rospy.Subscriber("/tandem_sim/fault", std.String, self._on_fault, queue_size=10)
+        self.topics.connect()
         for side in SIDES:
-            prefix = f"/robot/end_effector/{side}_gripper"
-            self._gripper_states[side] = rospy.Publisher(
-                f"{prefix}/state", baxter.EndEffectorState, queue_size=2
-            )
-            rospy.Subscriber(
-                f"{prefix}/command",
-                baxter.EndEffectorCommand,
-                lambda message, s=side: self._on_gripper(s, message),
-                queue_size=10,
+            self._endpoints[side] = rospy.Publisher(
+                f"/robot/limb/{side}/endpoint_state", baxter.EndpointState, queue_size=10
             )
             server = actionlib.SimpleActionServer(
                 f"/robot/limb/{side}/follow_joint_trajectory",
@@ -135,7 +157,8 @@ class SimNode:
 
     def run(self) -> None:
         """Publishes until `stop`; prints the ready line once our first state came back."""
-        gripper_every = max(1, round(self.settings.rate / GRIPPER_STATE_HZ))
+        state_every = max(1, round(self.settings.rate / STATE_HZ))
+        properties_every = max(1, round(self.settings.rate / PROPERTIES_HZ))
         began = next_tick = time.monotonic()
         ticks = 0
         ready = False
@@ -143,8 +166,10 @@ class SimNode:
             self.model.step_grippers(self.tick_s)
             if not self.muted:
                 self._publish_joints()
-            if ticks % gripper_every == 0:
-                self._publish_grippers()
+            if ticks % state_every == 0:
+                self.topics.publish_state()
+            if ticks % properties_every == 0:
+                self.topics.publish_properties()
             ticks += 1
             if not ready and self._echo.is_set():
                 ready = True
@@ -162,35 +187,32 @@ class SimNode:
     def _publish_joints(self) -> None:
         rospy, sensor = self.ros["rospy"], self.ros["sensor"]
         positions, velocities = self.model.positions(), self.model.velocities()
+        efforts = self.model.efforts()
         message = sensor.JointState(
             name=list(positions),
             position=list(positions.values()),
             velocity=[velocities[n] for n in positions],
+            effort=[efforts[n] for n in positions],
         )
         message.header.stamp = rospy.Time.now()
         self._joints.publish(message)
         self._published += 1
+        self._publish_endpoints(message.header.stamp)
 
-    def _publish_grippers(self) -> None:
-        rospy, baxter = self.ros["rospy"], self.ros["baxter"]
-        for side, gripper in self.model.grippers.items():
-            self._gripper_states[side].publish(
-                baxter.EndEffectorState(
-                    timestamp=rospy.Time.now(),
-                    id=GRIPPER_ID,
-                    enabled=1,
-                    calibrated=1,
-                    ready=int(not gripper.moving),
-                    moving=int(gripper.moving),
-                    gripping=int(gripper.gripping),
-                    position=gripper.position,
-                    force=30.0 if gripper.gripping else 0.0,
-                    state="{}",
-                    command=gripper.command,
-                    command_sender=gripper.sender,
-                    command_sequence=gripper.sequence,
-                )
-            )
+    def _publish_endpoints(self, stamp: Any) -> None:
+        baxter = self.ros["baxter"]
+        for side in SIDES:
+            end = self.model.endpoint(side)
+            message = baxter.EndpointState()
+            message.header.stamp = stamp
+            message.header.frame_id = "base"
+            pose, twist = message.pose, message.twist
+            pose.position.x, pose.position.y, pose.position.z = end.position
+            o = pose.orientation
+            o.x, o.y, o.z, o.w = end.orientation
+            twist.linear.x, twist.linear.y, twist.linear.z = end.linear
+            twist.angular.x, twist.angular.y, twist.angular.z = end.angular
+            self._endpoints[side].publish(message)
 
     # -- subscribers -------------------------------------------------------------------
 
@@ -206,12 +228,6 @@ class SimNode:
             self.muted = fault == "mute"
         else:
             self.ros["rospy"].logwarn("unknown fault %r: abort, mute or unmute", fault)
-
-    def _on_gripper(self, side: Side, message: Any) -> None:
-        if message.command in ("grip", "release"):
-            self.model.command_gripper(side, message.command, message.sender, message.sequence)
-        else:
-            self.ros["rospy"].logwarn("gripper command %r: only grip and release", message.command)
 
     # -- following a trajectory ----------------------------------------------------------
 
@@ -229,12 +245,18 @@ class SimNode:
         if isinstance(motion, Rejection):
             server.set_aborted(self._result(motion.code, motion.text), motion.text)
             return
+        limits = tolerances(
+            motion.joints,
+            [(t.name, t.position) for t in goal.path_tolerance],
+            [(t.name, t.position) for t in goal.goal_tolerance],
+            goal.goal_time_tolerance.to_sec(),
+        )
         with self._lock:
             self._running += 1
             abort_at = motion.seconds / 2 if self.abort_next else None
             self.abort_next = False
         try:
-            self._move(side, motion, self._start_delay(trajectory), abort_at)
+            self._move(side, Following(motion, limits, self._start_delay(trajectory), abort_at))
         finally:
             with self._lock:
                 self._running -= 1
@@ -246,32 +268,80 @@ class SimNode:
         stamp = trajectory.header.stamp.to_sec()
         return max(0.0, stamp - self.ros["rospy"].Time.now().to_sec()) if stamp else 0.0
 
-    def _move(self, side: Side, motion: Motion, delay: float, abort_at: float | None) -> None:
-        server = self._servers[side]
-        began = time.monotonic() + delay
+    def _move(self, side: Side, following: Following) -> None:
+        """Commands the spline, then the last point for the goal time, while the
+        robot lets the arm move; then checks the goal."""
+        server, motion = self._servers[side], following.motion
+        began = time.monotonic() + following.delay
+        now = self.model.positions()
+        start = {name: now[name] for name in motion.joints}
+        short = self.topics.stall_rad
+        stalled = stalled_joint(start, motion.last) if short > 0.0 else None
+        end = motion.seconds + following.limits.goal_time
         while True:
             t = time.monotonic() - began
-            if self.stop.is_set() or server.is_preempt_requested():
-                self._hold(motion)
-                text = f"stopped {max(t, 0.0):.2f} s into {motion.seconds:.2f} s"
-                server.set_preempted(self._result(None, text), text)
+            if self._interrupted(server, motion, t, following.abort_at):
                 return
-            if self._abort_running.is_set() or (abort_at is not None and t >= abort_at):
-                self._hold(motion)
-                text = f"fault injected: aborted {max(t, 0.0):.2f} s into {motion.seconds:.2f} s"
-                server.set_aborted(self._result("PATH_TOLERANCE_VIOLATED", text), text)
-                return
+            if t >= 0.0 and (t >= end or not self.robot.moving_allowed()):
+                break
             if t >= 0.0:
-                self.model.set(
-                    dict(zip(motion.joints, motion.at(t), strict=True)),
-                    _velocity(motion, t),
-                )
-            if t >= motion.seconds:
-                self._shown()
-                text = f"reached the last of {len(motion.times) - 1} waypoints"
-                server.set_succeeded(self._result(None, text), text)
-                return
+                command, velocity = self._command(motion, t, start, stalled, short)
+                off = path_error(following.limits, self.model.positions(), command)
+                if off is not None:
+                    self._hold(motion)
+                    text = f"{off[0]} was {off[1]:+.4f} rad off its path {t:.2f} s in"
+                    server.set_aborted(self._result("PATH_TOLERANCE_VIOLATED", text), text)
+                    return
+                self.model.set(command, velocity)
             self.stop.wait(self.tick_s)
+        self._hold(motion)
+        self._judge(server, motion, following.limits)
+
+    def _command(
+        self,
+        motion: Motion,
+        t: float,
+        start: Mapping[str, float],
+        stalled: str | None,
+        short: float,
+    ) -> tuple[dict[str, float], dict[str, float]]:
+        """The point commanded `t` seconds in: the spline's, within the joints'
+        limits, a stalled joint held back."""
+        command, velocity = motion.at(t)
+        for name, value in command.items():
+            limit = self.model.limits[name]
+            command[name] = min(max(value, limit.lower), limit.upper)
+        if stalled is not None:
+            held = stall(command[stalled], start[stalled], motion.last[stalled], short)
+            if held != command[stalled]:
+                command[stalled], velocity[stalled] = held, 0.0
+        return command, velocity
+
+    def _interrupted(self, server: Any, motion: Motion, t: float, abort_at: float | None) -> bool:
+        """Ends the goal on a cancel, a newer goal, the node stopping or an injected
+        abort; whether it did."""
+        if self.stop.is_set() or server.is_preempt_requested():
+            self._hold(motion)
+            text = f"stopped {max(t, 0.0):.2f} s into {motion.seconds:.2f} s"
+            server.set_preempted(self._result(None, text), text)
+            return True
+        if self._abort_running.is_set() or (abort_at is not None and t >= abort_at):
+            self._hold(motion)
+            text = f"fault injected: aborted {max(t, 0.0):.2f} s into {motion.seconds:.2f} s"
+            server.set_aborted(self._result("PATH_TOLERANCE_VIOLATED", text), text)
+            return True
+        return False
+
+    def _judge(self, server: Any, motion: Motion, limits: Tolerances) -> None:
+        """The goal check at the end: succeeded, or aborted with the joint named."""
+        why = goal_error(limits, self.model.positions(), self.model.velocities(), motion.last)
+        if why is not None:
+            server.set_aborted(self._result("GOAL_TOLERANCE_VIOLATED", why), why)
+            return
+        text = f"reached the last of {len(motion.times) - 1} waypoints"
+        if not self.robot.moving_allowed():
+            text = "the robot is disabled or stopped: ended without checking the goal"
+        server.set_succeeded(self._result(None, text), text)
 
     def _hold(self, motion: Motion) -> None:
         """The arm stays where it is (velocities 0), and the joint states say so."""
@@ -295,14 +365,15 @@ class SimNode:
         return result
 
 
-def _velocity(motion: Motion, t: float) -> dict[str, float]:
-    """The joints' velocities `t` seconds in (the segment's slope; 0 after the end)."""
-    if t >= motion.seconds:
-        return dict.fromkeys(motion.joints, 0.0)
-    dt = 1e-3
-    before, after = motion.at(max(t - dt, 0.0)), motion.at(t + dt)
-    span = (t + dt) - max(t - dt, 0.0)
-    return {n: (b - a) / span for n, a, b in zip(motion.joints, before, after, strict=True)}
+@dataclass(frozen=True)
+class Following:
+    """A goal being followed: its motion, tolerances, the wait before it starts (s),
+    and when an injected abort ends it (s in; None: no abort)."""
+
+    motion: Motion
+    limits: Tolerances
+    delay: float
+    abort_at: float | None
 
 
 def run_sim(settings: SimSettings) -> int:
@@ -322,8 +393,8 @@ def run_sim(settings: SimSettings) -> int:
         stop.set()
 
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-    model = BaxterModel(settings.start, settings.gui)
-    node = SimNode(settings, model, stop)
+    model = BaxterModel(settings.start, settings.gui, settings.grippers)
+    node = SimNode(settings, model, RobotState(settings.enabled), stop)
     try:
         node.connect()
         node.run()
@@ -331,6 +402,7 @@ def run_sim(settings: SimSettings) -> int:
         stop.set()
         node.wait_idle(1.0)  # a running goal reports preempted while ROS still runs
         if node.ros:
+            node.topics.close()
             node.ros["rospy"].signal_shutdown("stopped")
         model.close()
         for sig, handler in previous.items():
