@@ -38,6 +38,12 @@ def _counted(data: Path) -> list[tuple[int, str, int, str | None]]:
     return [(s.session_id, s.condition, s.participant, s.result) for s in tagged]
 
 
+def _children(pid: int) -> list[int]:
+    """The processes `pid` started (Linux: its threads' children)."""
+    tasks = Path(f"/proc/{pid}/task")
+    return [int(c) for t in tasks.iterdir() for c in (t / "children").read_text().split()]
+
+
 def _wait_gone(pids: list[int]) -> None:
     """Until the killed study's workers are gone (they die with it)."""
     deadline = time.monotonic() + 20
@@ -52,25 +58,36 @@ def _wait_gone(pids: list[int]) -> None:
             pytest.fail(f"worker {pid} outlived the killed study")
 
 
-def _kill_after_first_session(data: Path, out: Path) -> None:
-    args = [*tandem_command(), "study", str(EXAMPLE), "--data-dir", str(data),
+def _stop_after_first_session(
+    data: Path, out: Path, how: signal.Signals, study_file: Path = EXAMPLE
+) -> tuple[int, list[int]]:
+    """Sends `how` to the study (Ctrl-C: to its process group, as a terminal does) once
+    it stored a session; its exit code and its workers."""
+    args = [*tandem_command(), "study", str(study_file), "--data-dir", str(data),
             "--out", str(out), "--workers", "1"]  # fmt: skip
-    study = subprocess.Popen(args, cwd=ROOT, stderr=subprocess.PIPE, text=True)
+    study = subprocess.Popen(args, cwd=ROOT, stderr=subprocess.PIPE, text=True,
+                             start_new_session=True)  # fmt: skip
     assert study.stderr is not None
     for line in study.stderr:
         if " goal" in line or " aborted" in line or " dead-end" in line:
             break
-    study.send_signal(signal.SIGKILL)
-    study.wait(timeout=30)
+    workers = _children(study.pid)
+    if how == signal.SIGINT:
+        os.killpg(study.pid, how)
+    else:
+        study.send_signal(how)
+    code = study.wait(timeout=30)
     study.stderr.close()
+    return code, workers
 
 
 def test_a_study_killed_midway_resumes_to_one_session_each(tmp_path: Path) -> None:
     data, out = tmp_path / "data", tmp_path / "out"
-    _kill_after_first_session(data, out)
-    with SessionStore(data, read_only=True) as store:
-        open_pids = [s.pid for s in store.list_sessions(result="running") if s.pid is not None]
-    _wait_gone(open_pids)
+    _, workers = _stop_after_first_session(data, out, signal.SIGKILL)
+    # Nothing is left to store a session behind the resumed run: the one writer is
+    # gone, and its workers die with it.
+    assert workers
+    _wait_gone(workers)
     before = _counted(data)
     finals = [s for s in before if s[3] in FINAL_RESULTS]
     assert 1 <= len(finals) < 6, "killed midway: some sessions done, not all"
@@ -109,6 +126,24 @@ def test_a_study_killed_midway_resumes_to_one_session_each(tmp_path: Path) -> No
     assert again.returncode == 0, again.stderr
     assert "6 done, 0 to run" in again.stderr
     assert len(_counted(data)) == len(after)
+
+
+def test_ctrl_c_stops_a_study_at_once_keeping_only_whole_sessions(tmp_path: Path) -> None:
+    # The example with more participants: still running when Ctrl-C comes.
+    study = tmp_path / "example.toml"
+    text = EXAMPLE.read_text().replace("participants = 3", "participants = 12")
+    study.write_text(text.replace('"../scenarios/', f'"{EXAMPLE.parent.parent}/scenarios/'))
+    data, out = tmp_path / "data", tmp_path / "out"
+    code, workers = _stop_after_first_session(data, out, signal.SIGINT, study)
+    assert code == 130
+    _wait_gone(workers)
+    # The sessions under way were never stored: what is there ended at a final result.
+    before = _counted(data)
+    assert 1 <= len(before) < 24 and all(s[3] in FINAL_RESULTS for s in before)
+    resumed = tandem("study", str(study), "--data-dir", str(data), "--out", str(out))
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"{len(before)} done, {24 - len(before)} to run" in resumed.stderr
+    assert len(_counted(data)) == 24
 
 
 @pytest.mark.parametrize(

@@ -17,13 +17,13 @@ import csv
 import multiprocessing as mp
 import signal
 import sys
-from collections.abc import Callable, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from app.cli.exit_codes import BadInput
-from app.execution.events import ExecutionEvent, OutcomeSource, Result
+from app.execution.events import ExecutionEvent, OutcomeSource
 from app.execution.walker import Listener, Narrator
 from app.sessions.store import SessionStore
 from app.sessions.studies import (
@@ -88,10 +88,10 @@ def run(args: argparse.Namespace) -> int:
               f"{len(todo)} to run", file=sys.stderr)  # fmt: skip
         try:
             run_jobs(todo, store, args.cluster, args.workers)
+            rows = write_results(study, store, out)
         except KeyboardInterrupt:
             print("interrupted: run the same command again to go on", file=sys.stderr)
             return 130
-        rows = write_results(study, store, out)
     print(f"{len(rows)} sessions; wrote {out / 'sessions.csv'}, {out / 'summary.csv'} "
           f"and {out / 'summary.png'}")  # fmt: skip
     return 0 if len(rows) == total else 1
@@ -121,39 +121,40 @@ def run_jobs(todo: Sequence[Job], store: SessionStore, cluster: str | None, work
         for run in ray_cluster.as_completed_tasks(_run_job, todo):
             _keep(store, run, plans)
         return
-    with ProcessPoolExecutor(
-        max_workers=min(workers or mp.cpu_count(), len(todo)),
-        mp_context=mp.get_context("fork"),
-        initializer=_die_with_parent,
-    ) as pool:
-        futures = [pool.submit(_run_job, job) for job in todo]
-        kept: set[Future[SessionRun]] = set()
-        try:
-            for future in as_completed(futures):
-                kept.add(future)
-                _keep(store, future.result(), plans)
-        except KeyboardInterrupt:
-            # The running sessions stop on the same Ctrl-C (as interrupted) and come
-            # back; the waiting ones never start.
-            pool.shutdown(wait=True, cancel_futures=True)
-            for future in futures:
-                if future not in kept and future.done() and not future.cancelled() \
-                        and future.exception() is None:
-                    _keep(store, future.result(), plans)
-            raise
+    processes = min(workers or mp.cpu_count(), len(todo))
+    # A Ctrl-C leaves the workers to this process (they ignore it): `terminate` ends
+    # them with their sessions, which were never stored and run again on resume.
+    with mp.get_context("fork").Pool(processes, initializer=_die_with_parent) as pool:
+        for run in pool.imap_unordered(_run_job, todo):
+            _keep(store, run, plans)
 
 
 def _keep(store: SessionStore, run: SessionRun, plans: Plans) -> None:
-    session_id = store_run(store, run, plans)
+    with _ctrl_c_held():
+        session_id = store_run(store, run, plans)
     print(f"  {run.condition} participant {run.participant}: "
           f"session {session_id} {run.result}", file=sys.stderr, flush=True)  # fmt: skip
+
+
+@contextmanager
+def _ctrl_c_held() -> Iterator[None]:
+    """A Ctrl-C waits the few milliseconds a session takes to store: no half session."""
+    pressed: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda number, _: pressed.append(number))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if pressed and callable(previous):
+        previous(signal.SIGINT, None)
 
 
 def _die_with_parent() -> None:
     """A worker ends when the study's process does, even by SIGKILL: nobody is left
     to store its session, which a resumed run runs again."""
-    # Ctrl-C reaches the whole process group: the worker's executor stops on it.
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+    # Ctrl-C reaches the whole process group: a worker stopped in the middle of
+    # handing its result back would leave the pool's queues locked.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
         import ctypes
 
@@ -252,11 +253,7 @@ def _run_job(job: Job) -> SessionRun:
         retarget=retargeter_for(scenario, plan),
         timeline=SimulatedTimeline(job.seed, model.human(scenario.human), origin=0.0),
     )
-    result: Result
-    try:
-        result = executor.run()
-    except KeyboardInterrupt:
-        result = "interrupted"
+    result = executor.run()
     channel.close()
     note = f"seed {job.seed}; study {job.study}: {job.condition.name} #{job.participant}"
     # A motion's path and a repair's plan are not stored with the event: not sent.

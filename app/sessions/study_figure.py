@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import random
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
@@ -143,7 +143,7 @@ def _panel(
         ax.set_xlim(low_end, max(reach * 1.05, low_end + 1e-6))
 
 
-def whisker(key: str, line: Row) -> tuple[float, float]:
+def whisker(key: str, line: Mapping[str, object]) -> tuple[float, float]:
     """The 95 % interval of a summary row (`app.sessions.studies.SUMMARY_KEYS`) as
     drawn: clipped to the metric's range; the mean alone without an interval (one
     session)."""
