@@ -23,7 +23,7 @@ from app.execution.events import HUMAN, ExecutionEvent, is_step
 from app.execution.narration import RobotVoice
 from app.execution.timing import WallTimeline
 from app.execution.walker import Executor
-from app.responses.voice import VoiceAnswers
+from app.responses.voice import LiveDialogue, VoiceAnswers
 from app.sessions.store import SessionStore
 from app.sim.speaker import SimulatedSpeaker
 from app.sources.outcomes import RandomSource
@@ -173,3 +173,36 @@ def test_a_microphone_on_the_wall_clock_keeps_the_speech_where_it_was_said(
             assert question.wait_start is not None and question.end is not None
             assert question.wait_start <= event.start < event.end <= question.end
     print(f"\nspeech on the wall clock: {len(questions)} questions, worst offset {worst:.3f} s")
+
+
+def test_the_live_ear_keeps_the_humans_answers_on_the_wall_clock(
+    korean: Recognizer, tmp_path: Path
+) -> None:
+    """The live dialogue (the simulated room, in real time): each answer the ear took is
+    the human's speech where the room played it; the robot's own voice is none."""
+    plan = korean_plan()
+    voice = LiveDialogue(korean.language, korean, cache_dir=tmp_path).responses(
+        RandomSource(4), seed=4
+    )
+    assert voice.room is not None and voice.speaker is not None
+    room, human = voice.room, voice.speaker.voice
+    played: list[Span] = []
+    speak = voice.voice.on_question
+    assert speak is not None
+
+    def answer(node_id: str, node: PlanNode, options: Sequence[str]) -> None:
+        speak(node_id, node, options)
+        assert human.spoken_at is not None
+        played.append(human.spoken_at)
+
+    voice.voice.on_question = answer
+    executor = Executor(plan, voice.source, narrator=voice.robot, timeline=WallTimeline(),
+                        player=lambda node_id, motion: None)  # fmt: skip
+    assert executor.run() == "goal"
+    said = [e for e in executor.events if e.kind == HUMAN and e.source == "voice"]
+    assert played and len(said) == len(played), [e.text for e in said]
+    for event, span in zip(said, played, strict=True):
+        assert event.start is not None and event.end is not None
+        assert (event.text or "").startswith(("the human says", "the human speaks"))
+        assert abs(event.start - room.wall_s(span.speech_start_s)) <= 0.1, (event, span)
+        assert abs(event.end - room.wall_s(span.speech_end_s)) <= 0.1, (event, span)
