@@ -12,7 +12,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from app.cli.exit_codes import BadInput
+from app.cli.exit_codes import BAD_INPUT, BadInput
 from app.cli.robot_args import register_robot_args, robot_from_args
 from app.cli.voice_args import voice_from_args
 from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, Result
@@ -87,6 +87,13 @@ def register(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data-dir", help="session store folder (default: $TANDEM_DATA_DIR, ...)")
     parser.add_argument(
         "--step-delay", type=float, default=0.0, help="seconds between steps (default 0)"
+    )
+    parser.add_argument(
+        "--real-time",
+        action="store_true",
+        help="with camera:sim, play the simulated camera as a webcam is read, on the wall "
+        "clock: the simulated human's hands take their time and the camera times what it "
+        "sees them do (default: the simulated clock)",
     )
     parser.add_argument("--note", help="a note stored with the session")
     register_robot_args(parser)
@@ -187,6 +194,8 @@ def _check(args: argparse.Namespace) -> tuple[bool, bool]:
         raise BadInput("--language, --vosk-model and --speak go with --responses voice:...")
     if args.human != "random" and args.responses != "voice:sim":
         raise BadInput(f"--human {args.human}: only random, except with --responses voice:sim")
+    if args.real_time and args.responses != "camera:sim":
+        raise BadInput("--real-time goes with --responses camera:sim")
     return by_voice, seeded
 
 
@@ -210,8 +219,9 @@ def _answers(
 
     try:
         camera = camera_responses(
-            args.responses[len("camera:") :], scenario, plan, seed, calibration
-        )
+            args.responses[len("camera:") :], scenario, plan, seed, calibration,
+            real_time=args.real_time,
+        )  # fmt: skip
     except SourceError as err:
         raise BadInput(f"--responses {args.responses}: {err}") from err
     source = FallbackSource(camera.source, RandomSource(seed), on_fallback=_camera_fallback(plan))
@@ -227,7 +237,7 @@ def _timeline(args: argparse.Namespace, seed: int | None, scenario: Scenario | N
     they answer lasts as its dialogue's audio does on the simulated clock."""
     spec = str(args.responses)
     person = spec == "click" and sys.stdin.isatty()
-    camera = spec.startswith("camera:") and spec != "camera:sim"
+    camera = spec.startswith("camera:") and (spec != "camera:sim" or args.real_time)
     live = person or camera or spec == "voice:mic"
     if live or args.step_delay > 0 or args.robot != "drawing":
         return WallTimeline()
@@ -280,6 +290,8 @@ def run(args: argparse.Namespace) -> int:
     if robot is not None:
         robot.link.close()
     print(f"session {session_id}: {result} after {len(executor.events)} steps")
+    if robot is not None and robot.refused is not None and result != "goal":
+        return BAD_INPUT  # the robot refused to move (not enabled): the operator must act
     return 0 if result == "goal" else 1
 
 
