@@ -10,7 +10,10 @@
   kills it (SIGKILL) for fault tests.
 - `ros_node(master)` and `JointWatch`: a rospy node in this process, on the
   shared master, and the joint states it hears; `FaultTopic`: the simulated
-  node's fault drills ("abort", "mute", "unmute"), sent from that node.
+  node's fault drills ("abort", "mute", "unmute"), sent from that node;
+  `SimControls`: the simulated robot's e-stop (`/tandem_sim/estop`), a goal that
+  stops short (`/tandem_sim/stall`) and Baxter's own enable topic
+  (`/robot/set_super_enable`), sent from that node too.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -94,13 +97,18 @@ def _drain(stream: Any, sim: SimBaxter) -> None:
 
 @contextmanager
 def sim_baxter(
-    master: RosMaster, start: Mapping[str, float] | None = None, rate: float = 100.0
+    master: RosMaster,
+    start: Mapping[str, float] | None = None,
+    rate: float = 100.0,
+    options: Sequence[str] = (),
 ) -> Iterator[SimBaxter]:
-    """`tandem robot sim` on `master`, ready (see the module's text); stopped after."""
+    """`tandem robot sim` on `master` (with `options`), ready (see the module's text);
+    stopped after."""
     began = time.monotonic()
     process = subprocess.Popen(
         [sys.executable, "-m", "app.cli", "robot", "sim", "--master", master.uri,
-         "--rate", str(rate), "--start", json.dumps(dict(start)) if start else "home"],
+         "--rate", str(rate), "--start", json.dumps(dict(start)) if start else "home",
+         *options],
         cwd=ROOT, env=master.env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     sim = SimBaxter(process, master)
@@ -226,3 +234,32 @@ class FaultTopic:
 
     def close(self) -> None:
         self._publisher.unregister()
+
+
+class SimControls:
+    """Latched publishers (a message sent before the node listens still reaches it):
+    the simulated robot's e-stop button, its stall on each goal's end, and Baxter's
+    `/robot/set_super_enable`."""
+
+    def __init__(self, master: RosMaster) -> None:
+        rospy = ros_node(master)
+        std = importlib.import_module("std_msgs.msg")
+        self._std = std
+        self._estop = rospy.Publisher("/tandem_sim/estop", std.Bool, queue_size=1, latch=True)
+        self._stall = rospy.Publisher("/tandem_sim/stall", std.Float64, queue_size=1, latch=True)
+        self._enable = rospy.Publisher(
+            "/robot/set_super_enable", std.Bool, queue_size=1, latch=True
+        )
+
+    def estop(self, pressed: bool) -> None:
+        self._estop.publish(self._std.Bool(data=pressed))
+
+    def stall(self, radians: float) -> None:
+        self._stall.publish(self._std.Float64(data=radians))
+
+    def enable(self, enabled: bool) -> None:
+        self._enable.publish(self._std.Bool(data=enabled))
+
+    def close(self) -> None:
+        for publisher in (self._estop, self._stall, self._enable):
+            publisher.unregister()

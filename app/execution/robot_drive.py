@@ -11,9 +11,14 @@ the robot is, and reports what the robot did as a `RobotMotion` record:
   fault saying so.
 - **Pause and abort** cancel the goal under way (`cancel`); resumed, the arm
   goes on from the waypoint nearest to where it stopped.
-- **Faults** (an aborted goal, a silent joint-state stream, a lost master) are
-  recorded (`on_record`) with the robot's last joint state; the operator's
-  `OnFault` choice then retries from the motion's start or stops the
+- **Ready, and arrived.** Before each motion the link says whether the robot
+  would move (enabled, not stopped); if not, the motion is refused (`refused`
+  keeps why, so the command line can say the robot, not the plan, stopped the
+  run). A motion the robot reports as reached counts only when every joint is
+  within `GOAL_TOLERANCE_RAD` of its end (`off-goal` otherwise, naming the joint).
+- **Faults** (an aborted goal, a silent joint-state stream, a lost master, an
+  e-stop) are recorded (`on_record`) with the robot's last joint state; the
+  operator's `OnFault` choice then retries from the motion's start or stops the
   execution (`RobotStopped`).
 """
 
@@ -25,6 +30,8 @@ from typing import Literal
 
 from app.execution.evidence import RobotMotion
 from app.execution.robot_link import (
+    GOAL_TOLERANCE_RAD,
+    REFUSALS,
     Followed,
     GripperCommand,
     RobotFault,
@@ -33,6 +40,7 @@ from app.execution.robot_link import (
     Trajectory,
     arm_joints,
     farthest,
+    off_goal,
 )
 from app.execution.timing import SPEED_RATIO, segment_seconds
 from planner.plan.model import Motion
@@ -97,6 +105,22 @@ def _thinned(
     return tuple(samples[round(i * step)] for i in range(STATES_KEPT))
 
 
+def arrived(motion: Motion, followed: Followed) -> Followed:
+    """`followed`, or an `off-goal` fault when the robot said it reached the end but a
+    joint of its last state is farther from the motion's end than the tolerance."""
+    if not followed.ok or not followed.joints:
+        return followed
+    off = off_goal(followed.joints, dict(zip(motion.joints, motion.path[-1], strict=True)))
+    if off is None:
+        return followed
+    joint, error = off
+    line = (
+        f"the {motion.arm} arm stopped {abs(error):.3f} rad from the end of its motion at "
+        f"{joint} (tolerance {GOAL_TOLERANCE_RAD} rad), though the robot said it arrived"
+    )
+    return Followed("off-goal", line, followed.joints, followed.samples)
+
+
 class RobotDriver:
     """Moves `link`'s robot along the plan's motions (see the module's text)."""
 
@@ -114,6 +138,9 @@ class RobotDriver:
         self.on_fault = on_fault
         self.speed_ratio = speed_ratio
         self._cancelled = threading.Event()
+        # Why the robot refused the last motion it was asked for (not enabled, stopped);
+        # None when it took it.
+        self.refused: RobotFault | None = None
 
     def cancel(self) -> None:
         """Stops the motion under way (Pause, Abort, the voice's "stop"): from any thread."""
@@ -135,6 +162,7 @@ class RobotDriver:
             self._cancelled.clear()  # before the gate: a pause from here on is seen
             gate()
             followed, to_start = self._attempt(motion, gripper, resume_at)
+            followed = arrived(motion, followed)
             if followed.ok:
                 return self._record(motion, followed, to_start)
             if followed.cause == "preempted" and self._cancelled.is_set():
@@ -154,6 +182,12 @@ class RobotDriver:
     ) -> tuple[Followed, bool]:
         """One try at `motion` from its waypoint `resume_at`: the report, and whether a
         motion to the start came first."""
+        self.refused = None
+        try:
+            self.link.check_ready()
+        except RobotFault as fault:
+            self.refused = fault if fault.cause in REFUSALS else None
+            return Followed(fault.cause, fault.line, fault.joints or self._last_joints()), False
         try:
             here = list(arm_joints(self.link.joints(), motion.joints))
             path, to_start = self._route(motion, here, resume_at)
@@ -161,6 +195,12 @@ class RobotDriver:
             return self.link.follow(trajectory, gripper), to_start
         except RobotFault as fault:
             return Followed(fault.cause, fault.line, fault.joints), False
+
+    def _last_joints(self) -> dict[str, float]:
+        try:
+            return self.link.joints()
+        except RobotFault:
+            return {}
 
     def _route(
         self, motion: Motion, here: list[float], resume_at: int

@@ -20,7 +20,9 @@ from dataclasses import dataclass
 from typing import Literal, Protocol
 
 Side = Literal["left", "right"]
-# Baxter's gripper commands (baxter_core_msgs/EndEffectorCommand).
+# What a hold or an unhold asks of the gripper once the arm arrived: close on the part,
+# or open. The link turns it into the gripper's own commands (Baxter's electric gripper:
+# `go` to position 0 or 100; its suction cup: suction on, or `release`).
 GripperCommand = Literal["grip", "release"]
 # Why a link could not do what it was asked:
 # `no-master`: no ROS master answers; `no-server`: no trajectory action server;
@@ -28,11 +30,31 @@ GripperCommand = Literal["grip", "release"]
 # `aborted`: the robot stopped the trajectory under way; `preempted`: it was
 # cancelled (by Pause, Abort or the voice's "stop"); `silent`: the joint states
 # stopped coming; `master-lost`: the master went away mid-session; `off-start`: the
-# robot stands away from where a motion starts and no safe motion there was found.
+# robot stands away from where a motion starts and no safe motion there was found;
+# `disabled`: the robot is not enabled (before a motion: it refuses; during one: it
+# was disabled); `estop`: the robot is stopped (its e-stop, or a stop from software);
+# `off-goal`: a motion ended (the robot said succeeded) with a joint farther from its
+# end than `GOAL_TOLERANCE_RAD`; `gripper`: the gripper is missing, in error, or did
+# not do what it was told.
 FaultCause = Literal[
     "no-master", "no-server", "rejected", "aborted", "preempted", "silent", "master-lost",
-    "off-start",
+    "off-start", "disabled", "estop", "off-goal", "gripper",
 ]  # fmt: skip
+# A robot that refuses to move in the state it is in: the operator must act on it
+# (enable it, release its e-stop) before a run can go on.
+REFUSALS: tuple[FaultCause, ...] = ("disabled", "estop")
+# Every goal carries these tolerances, and the arrival is checked against the robot's
+# joint states with the same bound. 0.02 rad: about twice what Baxter's series-elastic
+# joints hold a still position to, and below the driver's start tolerance (0.05 rad), so
+# an arm that arrived always starts the next motion where it is.
+GOAL_TOLERANCE_RAD = 0.02
+# How late the arm may reach the end: half a second for a loaded arm to settle. Rethink's
+# trajectory action server commands the final point for this long after the trajectory's
+# end and only then checks the goal, so every motion lasts this much longer on it.
+GOAL_TIME_TOLERANCE_S = 0.5
+# The largest error allowed along the way (each joint): Rethink's server's own default,
+# sent explicitly so a server configured otherwise cannot loosen it.
+PATH_TOLERANCE_RAD = 0.2
 Joints = dict[str, float]  # joint name (`left_s0`, ...) -> radians
 
 
@@ -101,8 +123,16 @@ class RobotLink(Protocol):
         """Reaches the robot, or raises `RobotFault` (`no-master`, `no-server`)."""
         ...
 
+    def advertised(self) -> str:
+        """One line: where the robot reaches this program (a ROS node's address)."""
+        ...
+
     def joints(self) -> Joints:
         """The latest joint state, or raises `RobotFault` (`silent`, `master-lost`)."""
+        ...
+
+    def check_ready(self) -> None:
+        """Raises `RobotFault` (`disabled`, `estop`) when the robot would not move now."""
         ...
 
     def follow(self, trajectory: Trajectory, gripper: GripperCommand | None) -> Followed:
@@ -121,6 +151,18 @@ class RobotLink(Protocol):
 def arm_joints(joints: Mapping[str, float], names: Sequence[str]) -> tuple[float, ...]:
     """`joints` of `names`, in that order (a joint the state lacks raises KeyError)."""
     return tuple(float(joints[n]) for n in names)
+
+
+def off_goal(joints: Mapping[str, float], goal: Mapping[str, float]) -> tuple[str, float] | None:
+    """The joint farthest from `goal` and its error (radians, signed: goal - where it is),
+    when more than `GOAL_TOLERANCE_RAD`; None when every joint arrived. A joint the state
+    lacks counts as not arrived (error nan)."""
+    if not goal:
+        return None
+    errors = {name: q - joints.get(name, float("nan")) for name, q in goal.items()}
+    worst = max(errors, key=lambda n: abs(errors[n]) if errors[n] == errors[n] else float("inf"))
+    error = errors[worst]
+    return (worst, error) if not abs(error) <= GOAL_TOLERANCE_RAD else None
 
 
 def farthest(a: Sequence[float], b: Sequence[float]) -> float:

@@ -5,17 +5,32 @@ serves as well):
 
 - `/robot/limb/<side>/follow_joint_trajectory`: a
   `control_msgs/FollowJointTrajectoryAction` goal per motion, the arm's seven
-  joints with each waypoint's `time_from_start`;
-- `/robot/end_effector/<side>_gripper/command`: a
-  `baxter_core_msgs/EndEffectorCommand` ("grip" or "release") once a hold or
-  an unhold reached its end;
+  joints with each waypoint's `time_from_start`, and the tolerances of
+  `app.execution.robot_link` (each joint's goal and path tolerance, the goal
+  time tolerance), so Rethink's server checks the arrival (by default it does
+  not);
+- `/robot/end_effector/<side>_gripper/...`: the grippers, driven as Rethink's
+  Gripper drives them (`app.robot.link_gripper`) once a hold or an unhold
+  reached its end;
+- `/robot/state`: the robot's enable state (`app.robot.link_state`): a motion
+  on a robot not enabled, or stopped, is refused; one that becomes so while a
+  goal runs is a fault;
 - `/robot/joint_states`: `sensor_msgs/JointState`, kept as the robot's state,
-  streamed to watchers and sampled along each motion.
+  streamed to watchers and sampled along each motion; a motion the robot says
+  it finished counts only once a joint state published after it shows every
+  joint within the goal tolerance.
 
-Faults come back as `Followed` reports (or `RobotFault` from `connect` and
-`joints`): no master, no action server, a goal rejected, aborted or
-preempted, joint states silent for `SILENT_S`, the master gone (asked every
-`MASTER_CHECK_S` while a goal runs: topics between nodes outlive it).
+Faults come back as `Followed` reports (or `RobotFault` from `connect`,
+`check_ready` and `joints`): no master, no action server, a goal rejected,
+aborted or preempted, a robot disabled or stopped, an arm off its goal, a
+gripper that did not do its command, joint states silent for `SILENT_S`, the
+master gone (asked every `MASTER_CHECK_S` while a goal runs: topics between
+nodes outlive it).
+
+The robot's clock need not agree with this machine's: its stamps are turned
+into this machine's time by the smallest difference between a state's arrival
+and its stamp over the last `LAG_WINDOW` states (the clock offset plus the
+fastest delivery), so "published after the goal ended" means the same on both.
 
 rospy is imported here only, and only when this link connects (`use_ros`).
 """
@@ -26,30 +41,39 @@ import importlib
 import os
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
 from app.execution.robot_link import (
+    GOAL_TIME_TOLERANCE_S,
+    GOAL_TOLERANCE_RAD,
+    PATH_TOLERANCE_RAD,
     Followed,
     GripperCommand,
     JointListener,
     Joints,
     JointState,
     RobotFault,
+    Side,
     Trajectory,
+    off_goal,
 )
+from app.robot.link_gripper import Gripper
+from app.robot.link_network import advertised_line, choose_address
+from app.robot.link_state import StateWatch
 from app.robot.ros_env import master_answers, use_ros
 
 SILENT_S = 1.0  # no joint state for this long: the robot (or its driver) is gone
 MASTER_CHECK_S = 0.5
 CANCEL_WAIT_S = 0.4  # a cancelled goal reports preempted within this
 TICK_S = 0.02
-# Baxter's electric gripper's hardware id in EndEffectorCommand.
-GRIPPER_ID = 65538
+LAG_WINDOW = 200  # joint states over which the robot's clock offset is taken
 # actionlib's goal states (actionlib_msgs/GoalStatus).
 # FollowJointTrajectoryResult's INVALID_GOAL and INVALID_JOINTS: a goal refused
 # before the arm moved (Baxter's server aborts such goals rather than rejecting).
 REFUSED_CODES = (-1, -2)
+GOAL_TOLERANCE_VIOLATED = -5  # the server checked the arrival (our tolerances) and failed it
 # The master this process's rospy node is on (rospy allows one per process, for good).
 _NODE_MASTER: list[str] = []
 _NODE_LOCK = threading.Lock()
@@ -62,16 +86,19 @@ class RosLink:
 
     name = "ros"
 
-    def __init__(self, master_uri: str | None = None) -> None:
+    def __init__(self, master_uri: str | None = None, enable: bool = False) -> None:
         self.master_uri = master_uri or os.environ.get("ROS_MASTER_URI", "http://localhost:11311")
+        self.enable = enable  # enable the robot when connecting (as RobotEnable.enable)
         self._lock = threading.Lock()
         self._state: JointState | None = None
         self._received = 0.0  # time.monotonic() of the last joint state
+        self._lags: deque[float] = deque(maxlen=LAG_WINDOW)  # arrival - stamp (s)
+        self._robot: StateWatch | None = None
+        self._gripper: dict[str, Gripper] = {}
         self._watchers: list[JointListener] = []
         self._samples: list[tuple[float, JointState]] | None = None
         self._cancel = threading.Event()
         self._clients: dict[str, Any] = {}
-        self._grippers: dict[str, Any] = {}
         self._ros: dict[str, Any] = {}
         self._subscriber: Any = None
 
@@ -91,28 +118,51 @@ class RosLink:
         self._subscriber = rospy.Subscriber(
             "/robot/joint_states", sensor.JointState, self._on_joints, queue_size=50
         )
-        for side in ("left", "right"):
+        self._robot = StateWatch(rospy)
+        sides: tuple[Side, Side] = ("left", "right")
+        self._gripper = {side: Gripper(rospy, side) for side in sides}
+        for side in sides:
             topic = f"/robot/limb/{side}/follow_joint_trajectory"
             client = actionlib.SimpleActionClient(topic, control.FollowJointTrajectoryAction)
             if not client.wait_for_server(rospy.Duration(timeout_s)):
                 raise RobotFault("no-server", f"no trajectory action server at {topic}")
             self._clients[side] = client
-            self._grippers[side] = rospy.Publisher(
-                f"/robot/end_effector/{side}_gripper/command",
-                baxter.EndEffectorCommand, queue_size=2,
-            )  # fmt: skip
         deadline = time.monotonic() + timeout_s
         while self._state is None and time.monotonic() < deadline:
             time.sleep(TICK_S)
         if self._state is None:
             raise RobotFault("silent", "the robot publishes no joint states on /robot/joint_states")
+        self._robot.wait(max(deadline - time.monotonic(), 1.0))
+        if self.enable:
+            self._robot.enable()
+        self._prepare_grippers(deadline)
+
+    def _prepare_grippers(self, deadline: float) -> None:
+        """Calibrates the electric grippers once, at the start, on a robot that can move
+        them; an absent gripper faults only when a hold needs it."""
+        for gripper in self._gripper.values():
+            try:
+                gripper.wait(max(deadline - time.monotonic(), 0.5))
+            except RobotFault:
+                continue
+            if self._robot is not None and self._robot.fault() is None:
+                gripper.prepare()
+
+    def advertised(self) -> str:
+        rospy = self._ros["rospy"]
+        return advertised_line(rospy.get_node_uri() or "", self.master_uri, os.environ)
+
+    def check_ready(self) -> None:
+        fault = self._robot.fault() if self._robot is not None else None
+        if fault is not None:
+            raise RobotFault(fault.cause, fault.line, self._last())
 
     def _init_node(self, rospy: Any) -> None:
         """This process as a ROS node, once: rospy binds a process to one master."""
         with _NODE_LOCK:
             if not rospy.core.is_initialized():
                 os.environ["ROS_MASTER_URI"] = self.master_uri
-                os.environ.setdefault("ROS_HOSTNAME", "127.0.0.1")
+                choose_address(self.master_uri, os.environ)
                 rospy.init_node("tandem_executor", anonymous=True, disable_signals=True)
                 _NODE_MASTER.append(self.master_uri)
             # A node made elsewhere in this process took the environment's master.
@@ -129,10 +179,15 @@ class RosLink:
     # -- the robot's state ----------------------------------------------------------
 
     def _on_joints(self, message: Any) -> None:
-        # The robot's own stamp: a state handled late was still measured when stamped.
-        stamp = message.header.stamp.to_sec() or time.time()
-        state = JointState(stamp, dict(zip(message.name, message.position, strict=False)))
+        # The robot's own stamp, on this machine's clock (see the module's text): a state
+        # handled late was still measured when stamped.
+        arrived = time.time()
+        stamp = message.header.stamp.to_sec() or arrived
         with self._lock:
+            self._lags.append(arrived - stamp)
+            state = JointState(
+                stamp + min(self._lags), dict(zip(message.name, message.position, strict=False))
+            )
             self._state = state
             self._received = time.monotonic()
             if self._samples is not None:
@@ -180,9 +235,10 @@ class RosLink:
                 samples, self._samples = self._samples or [], None
         if cause is None:
             self._fresh(time.time())  # where the arm stopped, not a tick before
-        last = dict(self._state.positions) if self._state is not None else {}
+            cause, detail = self._arrived(trajectory)
+        last = self._last()
         if cause is None and gripper is not None:
-            self._grip(trajectory.arm, gripper)
+            cause, detail = self._grip(trajectory.arm, gripper, detail)
         names = trajectory.joints
         kept = tuple(
             (round(t - began, 3), tuple(s.positions.get(j, float("nan")) for j in names))
@@ -190,20 +246,67 @@ class RosLink:
         )
         return Followed(cause, detail, last, kept)
 
+    def _last(self) -> Joints:
+        with self._lock:
+            return dict(self._state.positions) if self._state is not None else {}
+
+    def _arrived(self, trajectory: Trajectory) -> tuple[Any, str]:
+        """The goal succeeded: whether the robot is still enabled and the arm at its end
+        (Rethink's server may say succeeded for an arm that never moved)."""
+        done = f"reached the end of {len(trajectory.points)} waypoints"
+        fault = self._robot.fault(during=True) if self._robot is not None else None
+        if fault is not None:
+            return fault.cause, fault.line
+        off = off_goal(self._last(), trajectory.final())
+        if off is None:
+            return None, done
+        joint, error = off
+        return "off-goal", (
+            f"the {trajectory.arm} arm stopped {abs(error):.3f} rad from the end of its "
+            f"motion at {joint} (tolerance {GOAL_TOLERANCE_RAD} rad), though the robot said "
+            "it arrived"
+        )
+
+    def _robot_fault_within(self, timeout_s: float) -> RobotFault | None:
+        """The robot's state fault, if its state says one within `timeout_s`."""
+        deadline = time.monotonic() + timeout_s
+        while self._robot is not None:
+            fault = self._robot.fault(during=True)
+            if fault is not None or time.monotonic() > deadline:
+                return fault
+            time.sleep(TICK_S)
+        return None
+
     def _wait(self, client: Any, trajectory: Trajectory) -> tuple[Any, str]:
-        """Waits for the goal's end, a cancel, a silent robot or a lost master."""
+        """Waits for the goal's end, a cancel, a robot disabled or stopped, a silent
+        robot or a lost master."""
         checked = time.monotonic()
         while True:
+            fault = self._robot.fault(during=True) if self._robot is not None else None
+            if fault is not None:
+                client.cancel_goal()
+                return fault.cause, fault.line
             state = _STATES.get(int(client.get_state()))
             if state == "succeeded":
                 return None, f"reached the end of {len(trajectory.points)} waypoints"
+            if state == "preempted" and not self._cancel.is_set():
+                # Rethink's server preempts a goal itself when the robot is disabled.
+                fault = self._robot_fault_within(CANCEL_WAIT_S)
+                if fault is not None:
+                    return fault.cause, fault.line
             if state is not None:
                 # The status can come before the result that carries the robot's words.
                 client.wait_for_result(self._ros["rospy"].Duration(CANCEL_WAIT_S))
                 result = client.get_result()
                 words = getattr(result, "error_string", "") if result is not None else ""
-                if state == "aborted" and getattr(result, "error_code", 0) in REFUSED_CODES:
+                code = getattr(result, "error_code", 0)
+                if state == "aborted" and code in REFUSED_CODES:
                     state = "rejected"  # refused before moving, as Baxter's server does
+                if state == "aborted" and code == GOAL_TOLERANCE_VIOLATED:
+                    self._fresh(time.time())
+                    cause, line = self._arrived(trajectory)  # the joint, as measured here
+                    if cause is not None:
+                        return cause, line
                 return state, f"the {trajectory.arm} arm's goal was {state}" + (
                     f": {words}" if words else ""
                 )
@@ -223,16 +326,18 @@ class RosLink:
                     return "master-lost", f"the ROS master at {self.master_uri} is gone"
             time.sleep(TICK_S)
 
-    def _fresh(self, after: float) -> None:
-        """Waits for a joint state stamped after `after` (epoch seconds: a tick or two,
-        `SILENT_S` at most); rospy's threads may hand over states late under load."""
+    def _fresh(self, after: float) -> JointState | None:
+        """The first joint state measured after `after` (this machine's epoch seconds; the
+        robot's stamps turned to them): a tick or two, `SILENT_S` at most (None then);
+        rospy's threads may hand over states late under load."""
         deadline = time.monotonic() + SILENT_S
         while time.monotonic() < deadline:
             with self._lock:
                 state = self._state
             if state is not None and state.stamp > after:
-                return
+                return state
             time.sleep(TICK_S / 4)
+        return None
 
     def _goal(self, trajectory: Trajectory) -> Any:
         rospy, control = self._ros["rospy"], self._ros["control"]
@@ -244,13 +349,23 @@ class RosLink:
                 points.JointTrajectoryPoint(positions=list(q), time_from_start=rospy.Duration(t))
             )
         goal.trajectory.header.stamp = rospy.Time(0)  # start now
+        for name in trajectory.joints:
+            goal.goal_tolerance.append(
+                control.JointTolerance(name=name, position=GOAL_TOLERANCE_RAD)
+            )
+            goal.path_tolerance.append(
+                control.JointTolerance(name=name, position=PATH_TOLERANCE_RAD)
+            )
+        goal.goal_time_tolerance = rospy.Duration(GOAL_TIME_TOLERANCE_S)
         return goal
 
-    def _grip(self, side: str, command: GripperCommand) -> None:
-        message = self._ros["baxter"].EndEffectorCommand(
-            id=GRIPPER_ID, command=command, args="{}", sender="tandem", sequence=0
-        )
-        self._grippers[side].publish(message)
+    def _grip(self, side: str, command: GripperCommand, detail: str) -> tuple[Any, str]:
+        """The gripper's command after the motion: its fault, or the motion's `detail`."""
+        try:
+            self._gripper[side].do(command)
+        except RobotFault as fault:
+            return fault.cause, fault.line
+        return None, detail
 
     def cancel(self) -> None:
         self._cancel.set()
@@ -260,6 +375,10 @@ class RosLink:
             self._watchers.clear()
         for client in self._clients.values():
             client.cancel_all_goals()
+        for gripper in self._gripper.values():
+            gripper.close()
+        if self._robot is not None:
+            self._robot.close()
         if self._subscriber is not None:
             self._subscriber.unregister()
             self._subscriber = None
