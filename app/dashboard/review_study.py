@@ -56,6 +56,7 @@ class StudyResults:
     stale: int  # tagged sessions not counted (interrupted, or run again)
     summary: list[Row]
     sessions: tuple[int, ...]
+    rows: tuple[Row, ...] = ()  # each counted session's metrics: the figure's dots
 
 
 def short_names(conditions: Sequence[str]) -> tuple[dict[str, str], str]:
@@ -90,7 +91,7 @@ def study_results(store: SessionStore, name: str) -> StudyResults:
     return StudyResults(
         name, conditions, common, per_condition, len(tagged) - len(counted),
         condition_summary(conditions, rows, FIGURE_METRICS),
-        tuple(sorted(s.session_id for s in counted.values())),
+        tuple(sorted(s.session_id for s in counted.values())), tuple(rows),
     )  # fmt: skip
 
 
@@ -124,7 +125,7 @@ def figure(results: StudyResults) -> np.ndarray:
     """The study's figure, one panel a line, as RGB pixels."""
     png = io.BytesIO()
     plot_summary(results.conditions, results.summary, FIGURE_METRICS, png, results.sessions,
-                 columns=1, dpi=FIGURE_DPI)  # fmt: skip
+                 rows=results.rows, columns=1, dpi=FIGURE_DPI)  # fmt: skip
     png.seek(0)
     with Image.open(png) as image:
         return np.asarray(image.convert("RGB"))
