@@ -10,7 +10,7 @@ import pytest
 
 from app.execution.events import HUMAN, ExecutionEvent
 from app.sessions.store import SessionStore
-from app.sessions.studies import finished, study_sessions
+from app.sessions.studies import finished, jobs, study_sessions
 from app.sessions.study_figure import short_names, whisker
 from app.sessions.study_runs import Plans, SessionRun, plan_hash, store_run
 from tests.plan_fixtures import default_plan
@@ -78,3 +78,29 @@ def test_the_figure_names_conditions_by_what_varies() -> None:
     assert shared == "default/*/normal/*/clicks"
     assert list(names.values()) == ["normal/cooperative", "strict/hesitant"]
     assert short_names(["a/b", "c/d"]) == ({"a/b": "a/b", "c/d": "c/d"}, "")
+
+
+def test_a_voice_participants_speech_is_timed_on_the_sessions_clock(tmp_path: Path) -> None:
+    """A study's voice condition keeps the human's speech as human activity (source
+    voice), on the session's simulated clock within each question's wait."""
+    from app.cli.study import _run_job
+    from app.sessions.metrics import session_metrics
+    from app.sessions.studies import load_study
+
+    path = tmp_path / "v.toml"
+    path.write_text(
+        '[study]\nname = "v"\nparticipants = 1\nseed = 3\n[conditions]\n'
+        'scenario = "default.toml"\nchannel = ["voice"]\n',
+        encoding="utf-8",
+    )
+    job = jobs(load_study(path))[0]
+    run = _run_job(job)
+    assert run.result == "goal"
+    speech = [e for e in run.events if e.kind == HUMAN and e.source == "voice"]
+    assert speech
+    questions = [e for e in run.events if e.kind == "communication" and e.wait_start is not None]
+    for said in speech:
+        asked = next(q for q in questions if q.node == said.node)
+        assert asked.wait_start <= said.start < said.end <= asked.end  # type: ignore[operator]
+    metrics = session_metrics(run.events, "simulated")
+    assert metrics.timed and metrics.human_active_s and metrics.human_active_s > 0

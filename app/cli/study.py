@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
 from app.execution.events import ExecutionEvent, OutcomeSource
@@ -42,6 +43,10 @@ from app.sessions.study_figure import plot_summary
 from app.sessions.study_runs import PlanKeeper, Plans, SessionRun, plan_hash, store_run
 from planner.plan.model import Plan
 from planner.scenario.model import Scenario
+from planner.scenario.sections import Human
+
+if TYPE_CHECKING:  # the clocks are loaded in the workers, with the executor
+    from app.execution.timing import SimulatedTimeline
 
 Row = dict[str, float | int | str | None]
 TAG_COLUMNS = ("study", "condition", "scenario", "safety", "verbosity", "behaviour",
@@ -229,12 +234,23 @@ def _reachable_parts(scenario: Scenario) -> list[str]:
     return [p.id for p in scenario.parts if p.region in within and p.kind != "top"]
 
 
+def _timeline(job: Job, human: Human) -> SimulatedTimeline:
+    """The session's simulated clock, from 0: a voice condition's questions last as
+    their dialogue's audio, and the human's speech is timed on it."""
+    from app.execution.timing import SimulatedTimeline
+
+    if job.condition.channel == "voice":
+        from app.sources.voice_clock import DialogueTimeline
+
+        return DialogueTimeline(job.seed, human, origin=0.0)
+    return SimulatedTimeline(job.seed, human, origin=0.0)
+
+
 def _run_job(job: Job) -> SessionRun:
     """One participant's session in one condition, in memory: the study's process
     stores it. Its simulated clock starts at 0."""
     from app.execution.repair import Repairer
     from app.execution.retargeting import retargeter_for
-    from app.execution.timing import SimulatedTimeline
     from app.execution.walker import Executor
     from app.sim.behaviours import MODELS, BehavingSource
 
@@ -251,7 +267,7 @@ def _run_job(job: Job) -> SessionRun:
         narrator=channel.narrator,
         repairing=Repairer(scenario, repairs.keep).repair,
         retarget=retargeter_for(scenario, plan),
-        timeline=SimulatedTimeline(job.seed, model.human(scenario.human), origin=0.0),
+        timeline=_timeline(job, model.human(scenario.human)),
     )
     result = executor.run()
     channel.close()

@@ -147,7 +147,10 @@ class LiveAnswers:
         if live.simulated is None:
             source, watch = watched(live)
             return source, [watch.on_event]
-        world = SimulatedWorld(part_boxes(live.scenario), live.layout, live)
+        # The simulated human's hands take their time on the page's wall clock, as a
+        # person's would: the camera times the moves it sees.
+        hands = PacedHands(live)
+        world = SimulatedWorld(part_boxes(live.scenario), live.layout, live, hands)
         human = self.human(plan, world)
         source, watch = watched(live, DirectedHuman(human, intent))
         return source, [human.on_event, watch.on_event]

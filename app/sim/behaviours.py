@@ -27,7 +27,7 @@ import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from app.execution.events import Outcome, OutcomeSource, describe
+from app.execution.events import ExecutionControls, Outcome, OutcomeSource, describe
 from app.execution.surprises import HumanPutDown, HumanTook, Surprise, SurpriseError
 from app.execution.timing import HumanActivity
 from app.sessions.studies import BEHAVIOURS, Behaviour
@@ -92,6 +92,18 @@ class BehavingSource:
         stop = getattr(self.inner, "interrupt", None)
         if callable(stop):
             stop()
+
+    # The channel is handed the execution as if it answered alone (the voice keeps
+    # the dialogue's turns and the human's speech, a camera what it sees).
+    def attach(self, controls: ExecutionControls) -> None:
+        attach = getattr(self.inner, "attach", None)
+        if callable(attach):
+            attach(controls)
+
+    def detach(self, controls: ExecutionControls) -> None:
+        detach = getattr(self.inner, "detach", None)
+        if callable(detach):
+            detach(controls)
 
     def choose(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Outcome | None:
         if node.kind == "communication" and len(options) > 1:
