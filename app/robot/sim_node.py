@@ -108,6 +108,7 @@ class SimNode:
         self._published = 0  # joint states sent
         self.abort_next = False
         self._abort_running = threading.Event()
+        self._abort_taken = False  # a running goal was aborted by `_abort_running`
         self._running = 0  # goals being followed
         self._lock = threading.Lock()
         self.ros: dict[str, Any] = {}
@@ -261,7 +262,12 @@ class SimNode:
             with self._lock:
                 self._running -= 1
                 if not self._running:
+                    # A fault that came as the last goal ended (its result already
+                    # sent) is for the next goal.
+                    if self._abort_running.is_set() and not self._abort_taken:
+                        self.abort_next = True
                     self._abort_running.clear()
+                    self._abort_taken = False
 
     def _start_delay(self, trajectory: Any) -> float:
         """Seconds until the trajectory's header stamp (0 when it is 0 or past)."""
@@ -326,6 +332,8 @@ class SimNode:
             server.set_preempted(self._result(None, text), text)
             return True
         if self._abort_running.is_set() or (abort_at is not None and t >= abort_at):
+            with self._lock:
+                self._abort_taken = self._abort_taken or self._abort_running.is_set()
             self._hold(motion)
             text = f"fault injected: aborted {max(t, 0.0):.2f} s into {motion.seconds:.2f} s"
             server.set_aborted(self._result("PATH_TOLERANCE_VIOLATED", text), text)
