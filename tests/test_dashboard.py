@@ -136,6 +136,35 @@ def plan_clicked(page: Page, dashboard: Dashboard, timeout: float = 120) -> None
     wait_for(lambda: dashboard.plan is not before and shown(), timeout)
 
 
+def run_by_clicks(page: Page, dashboard: Dashboard, seconds_per_step: float) -> int:
+    """Plans, then runs the plan at `seconds_per_step`, answering every question with its
+    last button as a user would; the session's id once it is stored as at the goal."""
+    plan_clicked(page, dashboard)
+    dashboard.execution.speed.value = seconds_per_step
+    executor = execute_clicked(page, dashboard)
+    clicks = dashboard.execution.clicks
+    assert clicks is not None
+    while not executor.done:
+        offer = clicks.pending()
+        if offer is None:
+            time.sleep(0.05)
+            continue
+        try:
+            page.get_by_role("button", name=offer.words[-1], exact=True).click(timeout=5000)
+        except Exception:
+            pass  # answered meanwhile: its buttons went; the loop looks again
+
+        def answered(asked: object = offer) -> bool:
+            return clicks.pending() != asked or executor.done
+
+        wait_for(answered)
+    assert executor.result == "goal", executor.events
+    session_id = dashboard.execution.session_id
+    assert session_id is not None
+    wait_for(lambda: dashboard.store.get(session_id).result == "goal")
+    return session_id
+
+
 def colour_counts(page: Page) -> tuple[int, int]:
     """Strongly red and strongly blue pixels of the 3D view."""
     image = Image.open(io.BytesIO(page.screenshot())).convert("RGB")

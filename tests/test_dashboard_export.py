@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import csv
 import json
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -33,12 +32,10 @@ from app.sessions.export import CSV_COLUMNS  # noqa: E402
 from app.sessions.mcap_export import SessionRun  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     browser,
-    execute_clicked,
     opened,
-    plan_clicked,
+    run_by_clicks,
     served,
     shot,
-    wait_for,
 )
 from tests.test_dashboard_review import open_session  # noqa: E402
 
@@ -54,35 +51,6 @@ SPAN_TOLERANCE_NS = 2_000_000
 def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
     with served(tmp_path_factory.mktemp("data")) as d:
         yield d
-
-
-def run_by_clicks(page: Page, dashboard: Dashboard) -> int:
-    """Plans, then runs the plan answering every question with its last button; the
-    session's id once it is stored as reaching the goal."""
-    plan_clicked(page, dashboard)
-    dashboard.execution.speed.value = SECONDS_PER_STEP
-    executor = execute_clicked(page, dashboard)
-    clicks = dashboard.execution.clicks
-    assert clicks is not None
-    while not executor.done:
-        offer = clicks.pending()
-        if offer is None:
-            time.sleep(0.05)
-            continue
-        try:
-            page.get_by_role("button", name=offer.words[-1], exact=True).click(timeout=5000)
-        except Exception:
-            pass  # answered meanwhile: its buttons went; the loop looks again
-
-        def answered(asked: object = offer) -> bool:
-            return clicks.pending() != asked or executor.done
-
-        wait_for(answered)
-    assert executor.result == "goal", executor.events
-    session_id = dashboard.execution.session_id
-    assert session_id is not None
-    wait_for(lambda: dashboard.store.get(session_id).result == "goal")
-    return session_id
 
 
 def downloaded(page: Page, button: str, name: str, folder: Path) -> Path:
@@ -163,7 +131,7 @@ def test_a_clicked_session_downloads_whole_and_true_to_time(
     tmp_path: Path,
 ) -> None:
     with opened(browser, dashboard) as page:
-        session_id = run_by_clicks(page, dashboard)
+        session_id = run_by_clicks(page, dashboard, SECONDS_PER_STEP)
         page.get_by_role("tab", name="Review").click()
         open_session(page, dashboard, session_id)
         files = {

@@ -15,21 +15,14 @@ from pathlib import Path
 import pytest
 
 pytest.importorskip("playwright.sync_api")
-from playwright.sync_api import Browser, Page  # noqa: E402
+from playwright.sync_api import Browser  # noqa: E402
 
 from app.dashboard.server import Dashboard  # noqa: E402
 from app.execution.events import HUMAN, ExecutionEvent, is_step  # noqa: E402
 from app.execution.timing import human_activity, waits_for_human  # noqa: E402
 from app.sessions.metrics import session_metrics  # noqa: E402
 from planner.plan.model import Motion, Plan  # noqa: E402
-from tests.test_dashboard import (  # noqa: E402
-    browser,
-    execute_clicked,
-    opened,
-    plan_clicked,
-    served,
-    wait_for,
-)
+from tests.test_dashboard import browser, opened, run_by_clicks, served  # noqa: E402
 
 __all__ = ["browser"]  # the fixture, shared with the dashboard's other browser tests
 
@@ -56,36 +49,6 @@ def _timed_animations(dashboard: Dashboard) -> list[tuple[float, float]]:
 
     panel._play = timed  # type: ignore[method-assign]
     return played
-
-
-def _click_through(page: Page, dashboard: Dashboard) -> list[ExecutionEvent]:
-    """Runs the shown plan, answering every question with its last button; the stored
-    events of the session."""
-    dashboard.execution.speed.value = SECONDS_PER_STEP
-    executor = execute_clicked(page, dashboard)
-    clicks = dashboard.execution.clicks
-    assert clicks is not None
-    while not executor.done:
-        offer = clicks.pending()
-        if offer is None:
-            time.sleep(0.05)
-            continue
-        button = page.get_by_role("button", name=offer.words[-1], exact=True)
-        try:
-            button.click(timeout=5000)
-        except Exception:
-            pass  # answered meanwhile: its buttons went; the loop looks again
-
-        def answered(asked: object = offer) -> bool:
-            return clicks.pending() != asked or executor.done
-
-        wait_for(answered)
-    assert executor.result == "goal", executor.events
-    session_id = dashboard.execution.session_id
-    assert session_id is not None
-    wait_for(lambda: dashboard.store.get(session_id).result == "goal")
-    assert dashboard.store.get(session_id).clock == "wall"
-    return dashboard.store.events(session_id)
 
 
 def _check_motions(events: list[ExecutionEvent], played: list[tuple[float, float]]) -> None:
@@ -129,10 +92,11 @@ def test_a_clicked_session_stores_true_motions_and_the_humans_actions(
 ) -> None:
     played = _timed_animations(dashboard)
     with opened(browser, dashboard) as page:
-        plan_clicked(page, dashboard)
-        plan = dashboard.plan
-        assert plan is not None
-        events = _click_through(page, dashboard)
+        session_id = run_by_clicks(page, dashboard, SECONDS_PER_STEP)
+    plan = dashboard.plan
+    assert plan is not None
+    assert dashboard.store.get(session_id).clock == "wall"
+    events = dashboard.store.events(session_id)
     _check_motions(events, played)
     _check_clicked_humans(plan, events)
     metrics = session_metrics(events, clock="wall")
