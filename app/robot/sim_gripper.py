@@ -6,7 +6,9 @@ Both kinds answer only commands carrying their own hardware id (the id is read
 from the gripper's state, as `Gripper.hardware_id` does); anything else is
 ignored, as the firmware ignores it. A handled command is echoed in the state's
 `command`, `command_sender` and `command_sequence` (the acknowledgement
-`Gripper.command` waits for).
+`Gripper.command` waits for); a command repeated with the same sender and
+sequence number (as `Gripper.command` resends it until its test passes) is not
+carried out again.
 
 Electric (id 65538): it starts uncalibrated. `calibrate` takes
 `CALIBRATE_SECONDS` (not ready meanwhile), clears an error, and leaves the
@@ -141,6 +143,14 @@ class Gripper:
         with self._lock:
             if target_id != self.id:
                 return f"ignored {command!r}: id {target_id} is not this gripper's ({self.id})"
+            if sequence and (command, sender, sequence) == (
+                self.command,
+                self.sender,
+                self.sequence,
+            ):
+                # Rethink's Gripper resends a command until its test passes: a repeat
+                # (same sender and sequence) is acknowledged, not carried out again.
+                return f"repeated {command!r}"
             arguments = _arguments(args)
             if arguments is None:
                 return f"ignored {command!r}: its args are not a JSON object: {args!r}"
