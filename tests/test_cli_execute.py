@@ -288,3 +288,6 @@ def test_a_headless_run_is_on_the_simulated_clock_with_true_lengths(
             assert length == pytest.approx(motion_seconds(plan.nodes[event.node].motion))
         assert any(e.kind == "human" and e.source == "simulated" for e in events)
         assert record.ended == max(e.end for e in events)  # type: ignore[type-var]
+        shown = tandem("sessions", "show", str(sid), env=env).stdout
+        assert "  clock     simulated (" in shown
+        assert "human         human (simulated)" in shown

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from app.cli.exit_codes import BadInput
-from app.execution.events import RESULTS
+from app.execution.events import HUMAN, RESULTS
 from app.sessions.export import events_csv
 from app.sessions.metrics import METRIC_KEYS
 from app.sessions.store import SessionRecord, SessionStore, iso
@@ -107,6 +107,14 @@ def _list(args: argparse.Namespace) -> int:
     return 0
 
 
+# What a session's clock means, for `tandem sessions show`.
+CLOCK_WORDS = {
+    "wall": "wall (a person, a device or a robot: every step took its real time)",
+    "simulated": "simulated (no time passed: each step took its modelled time)",
+}
+UNSAID_CLOCK = "not said (stored before sessions said their clock: untimed)"
+
+
 def _show(args: argparse.Namespace) -> int:
     session_id = _session_id(args.id)
     with SessionStore(args.data_dir) as store:
@@ -120,10 +128,13 @@ def _show(args: argparse.Namespace) -> int:
         print(f"  ended     {iso(record.ended)}")
     if record.note:
         print(f"  note      {record.note}")
+    print(f"  clock     {CLOCK_WORDS.get(record.clock or '', UNSAID_CLOCK)}")
     for event in events:
         line = f"  {event.seq:3d} {event.node:>5} {event.kind:13} {event.action or event.kind}"
         if event.outcome is not None:
             line += f" -> {event.outcome} ({event.source})"
+        elif event.kind == HUMAN and event.source is not None:
+            line += f" ({event.source})"  # where the human's times come from
         if event.text:
             line += f"  {event.text}"
         print(line)
