@@ -334,6 +334,8 @@ def _one_joint_state(master: RosMaster) -> dict[str, float]:
         (["--master", "http://127.0.0.1:{port}"], "no ROS master answers at http://127.0.0.1:"),
         (["--start", '{"left_s9": 1.0}'], "--start: not arm joints: left_s9"),
         (["--start", "left_s0=1"], "--start: not JSON nor home"),
+        (["--gripper", "vacuum"], "--gripper vacuum: the kind is electric or suction"),
+        (["--gripper", "middle=suction"], "--gripper middle=suction: the side is left or right"),
     ],
 )
 def test_what_the_node_cannot_run_on_is_one_line_and_exit_code_2(
