@@ -348,7 +348,7 @@ class SimNode:
             return
         text = f"reached the last of {len(motion.times) - 1} waypoints"
         if not self.robot.moving_allowed():
-            text = "the robot is disabled or stopped: ended without checking the goal"
+            text = "the robot is disabled or stopped: the arm halted where it was"
         server.set_succeeded(self._result(None, text), text)
 
     def _hold(self, motion: Motion) -> None:
