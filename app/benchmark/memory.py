@@ -224,6 +224,9 @@ def run_day(
     try:
         _wait(lambda: len(dashboard.server.get_clients()) == pages, 30, "the pages")
         dashboard.execution.speed.value = 0.0
+        # Muted: a day's executions back to back, not at the pace of the robot's voice
+        # (on the wall clock a spoken line lasts as its audio plays).
+        dashboard.speech.mute.value = True
         plan_once(dashboard)
         for k in range(1, executions + 1):
             if replan and k > 1:

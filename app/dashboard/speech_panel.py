@@ -87,7 +87,10 @@ class SpeechPanel:
         with gui.add_folder("Speech", order=PANEL_ORDER):
             # Any: viser's types mark `.value` read-only, yet setting it updates the page.
             self.mode: Any = gui.add_dropdown("Answers by", MODES, initial_value=MODES[0])
-            self.mute: Any = gui.add_checkbox("Mute", False)
+            self.mute: Any = gui.add_checkbox(
+                "Mute", False, hint="Answered by clicks, a muted robot shows its lines "
+                "without speaking them (they take no time)",
+            )  # fmt: skip
             self.engine = gui.add_markdown("Voice: not spoken yet.")
             self.listening = gui.add_markdown("Not listening.")
             self.level: Any = gui.add_progress_bar(0.0)
@@ -140,7 +143,9 @@ class SpeechPanel:
 
     # -- what the execution panel asks for ------------------------------------------
 
-    def responses(self, plan: Plan, clicks: ClickSource) -> tuple[OutcomeSource, Narrator]:
+    def responses(
+        self, plan: Plan, clicks: ClickSource
+    ) -> tuple[OutcomeSource, Narrator | None]:
         """The outcome source and narrator of an execution of `plan` (clicks as fallback)."""
         code = plan_language(plan)
         mode = str(self.mode.value)
@@ -168,6 +173,10 @@ class SpeechPanel:
             if isinstance(audio, MicrophoneSource):
                 audio.on_level = self._level  # the meter moves while a person speaks
             return self.voice.source, self.voice.robot
+        if self.mute.value:
+            # Muted, clicks answering: the lines are shown in the log, not spoken, so on
+            # the wall clock they take no time (a spoken one lasts as its audio plays).
+            return clicks, None
         return clicks, RobotVoice(code, self._engine, listeners=[self._spoken])
 
     @property

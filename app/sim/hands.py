@@ -81,8 +81,9 @@ class PacedHands:
         self._idle = threading.Condition()
         self._pending = 0
         self._rested_from = 0.0  # when the last move ended (time.monotonic())
-        self._thread = threading.Thread(target=self._run, name="simulated-hands", daemon=True)
-        self._thread.start()
+        # The hands' thread runs while there are moves to make: one made per execution
+        # (the dashboard's) must not outlive it.
+        self._thread: threading.Thread | None = None
 
     def submit(
         self,
@@ -95,7 +96,12 @@ class PacedHands:
         pose to its second; `arrived` is told the poses they are shown at once there."""
         with self._idle:
             self._pending += 1
-        self._jobs.put(_Job(action, part, dict(paths), arrived))
+            self._jobs.put(_Job(action, part, dict(paths), arrived))
+            if self._thread is None:
+                self._thread = threading.Thread(
+                    target=self._run, name="simulated-hands", daemon=True
+                )
+                self._thread.start()
 
     def wait(self, timeout: float = 30.0) -> None:
         """Until every move submitted so far is done."""
@@ -103,10 +109,22 @@ class PacedHands:
             self._idle.wait_for(lambda: self._pending == 0, timeout)
 
     def close(self) -> None:
-        self._jobs.put(None)
+        with self._idle:
+            if self._thread is not None:
+                self._jobs.put(None)
 
     def _run(self) -> None:
-        while (job := self._jobs.get()) is not None:
+        while True:
+            with self._idle:
+                try:
+                    job = self._jobs.get_nowait()
+                except queue.Empty:
+                    self._thread = None  # done: the next move starts another
+                    return
+            if job is None:
+                with self._idle:
+                    self._thread = None
+                return
             try:
                 self._move(job)
             finally:
