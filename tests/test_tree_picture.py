@@ -115,7 +115,10 @@ def test_a_timed_session_on_lanes_with_who_answered_and_a_cursor() -> None:
         ("talk", 0.0, 1.0), ("robot", 1.0, 3.0), ("human", 1.5, 4.0), ("sensing", 4.0, 5.0)
     ]
     svg = lanes_svg(timed, shown=3)
-    assert svg.count("<rect") == 4 and "answered by camera" in svg and ">C</text>" in svg
+    # Four bars, the camera's answer with the camera's own mark (a letter once stood
+    # for both click and camera).
+    assert svg.count('class="bar"') == 4 and "answered by camera" in svg
+    assert svg.count('data-source="camera"') == 1 and ">C</text>" not in svg
     assert "0 s … 5.0 s" in svg and f'stroke="{CURRENT}"' in svg
     untimed = [ExecutionEvent(i, 0.0, f"n{i}", None, "communication") for i in range(3)]
     assert "untimed" in lanes_svg(untimed) and bars(untimed)[1] is False

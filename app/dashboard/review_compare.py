@@ -11,7 +11,9 @@ planning times differ, and so its hash).
 
 `CompareView` is the review's "Compare with" dropdown and the sentence; the
 second session's lanes (`below`) are drawn under the first's, in the same
-element, on one time scale, the divergence marked on both by a dashed line.
+element, each on its own time scale (a long session would squash a short one
+on a shared scale), each zoomed and panned on its own, the divergence (when
+the paths differ) marked on both by a dashed line.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from typing import Any
 import viser
 
 from app.dashboard.review_timeline import lanes_html
-from app.dashboard.timeline_svg import is_timed, spans
+from app.dashboard.timeline_svg import Window, duration, is_timed
 from app.execution.events import ExecutionEvent, is_step
 from app.sessions.database import StoreError
 from app.sessions.store import SessionRecord, SessionStore, UnknownSession
@@ -124,8 +126,9 @@ class CompareView:
         self.first_events: Sequence[ExecutionEvent] = ()
         self.other: SessionRecord | None = None
         self.marked: int | None = None  # the divergence, in the first session
-        self.until: float | None = None  # the longer session's time: one scale for both
-        self.below = ""  # the second session's lanes, as HTML
+        self.other_events: Sequence[ExecutionEvent] = ()
+        self.other_marked: int | None = None  # the divergence, in the second
+        self.caption = ""
         self._ids: dict[str, int] = {}
         self.pick: Any = gui.add_dropdown("Compare with", [NO_COMPARISON])
         self.pick.on_update(lambda e: self._picked(e.client is not None))
@@ -145,9 +148,20 @@ class CompareView:
         self.clear()
 
     def clear(self) -> None:
-        self.other, self.marked, self.until = None, None, None
+        self.other, self.marked, self.other_marked = None, None, None
+        self.other_events, self.caption = (), ""
         self.words.content = "" if self._ids else "*No other session of this plan.*"
-        self.below = ""
+
+    def below(self, window: Window | None = None) -> str:
+        """The second session's lanes, showing `window` of its time, as HTML."""
+        if self.other is None:
+            return ""
+        return self.caption + lanes_html(self.other_events, None, self.other_marked,
+                                         clickable=False, window=window, name="second")  # fmt: skip
+
+    def total(self) -> float:
+        """How long the second session took (its lanes' whole time)."""
+        return duration(self.other_events)
 
     def _picked(self, by_user: bool) -> None:
         # Only a choice in the page compares: `offer` resets the value itself.
@@ -168,14 +182,14 @@ class CompareView:
             return
         first = self.first_events
         found = divergence(first, events)
-        self.other = other
+        self.other, self.other_events = other, events
         self.marked = found.first if found is not None else None
-        # One time scale for both, when both are timed (else steps and seconds mix).
-        both = is_timed(first) and is_timed(events)
-        self.until = max(end for _, end in (*spans(first), *spans(events))) if both else None
+        self.other_marked = found.second if found is not None else None
         names = (f"#{self.first.id}", f"#{other.id}")
         self.words.content = divergence_words(first, events, names)
-        marked = found.second if found is not None else None
-        caption = (f'<div style="font-size:12px;margin-top:4px">{names[1]}, where it parted '
-                   f"from {names[0]} dashed:</div>")  # fmt: skip
-        self.below = caption + lanes_html(events, None, marked, until=self.until, clickable=False)
+        # Each on its own scale: say how long each took.
+        took = f"{duration(events):.1f} s" if is_timed(events) else "untimed"
+        parted = f", where it parted from {names[0]} dashed" if found is not None else (
+            f", the same path as {names[0]}")  # fmt: skip
+        self.caption = (f'<div style="font-size:12px;margin-top:4px">{names[1]} ({took}, '
+                        f"its own time scale){parted}:</div>")  # fmt: skip

@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 import viser
 
+from app.dashboard.lane_marks import legend_html
 from app.dashboard.review_compare import CompareView
 from app.dashboard.review_downloads import SessionDownloads
 from app.dashboard.review_metrics import metrics_markdown
@@ -32,12 +33,19 @@ from app.dashboard.review_study import StudyView
 from app.dashboard.review_timeline import (
     BRIDGE,
     HIDE_BRIDGE,
-    bridged_step,
+    PICTURES,
+    SCRIPT_HTML,
+    Picture,
+    bridged,
     clock_words,
+    following,
     lanes_html,
+    step_time,
     transcript,
+    zoomed,
 )
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
+from app.dashboard.timeline_svg import Window, duration, sources
 from app.dashboard.tree_svg import Step
 from app.execution.events import REPAIR, RESULTS, ExecutionEvent
 from app.sessions.database import StoreError
@@ -77,13 +85,17 @@ class ReviewPanel:
             # Steps counted from 1, as the summary and the comparison count them.
             self.timeline: Any = gui.add_slider("Timeline", 1, 2, 1, 1, disabled=True)
             self.timeline.on_update(self._timeline_moved)
-            # The lanes under the slider; a click on a bar comes back through the
-            # hidden field (review_timeline.py).
+            # The lanes under the slider; a click on a bar, a zoom or a pan comes
+            # back through the hidden field (review_timeline.py).
             self.lanes = gui.add_html(HIDE_BRIDGE)
             self.bridge: Any = gui.add_text("lanes events", BRIDGE)
-            self.bridge.on_update(lambda _: self._bar_clicked(str(self.bridge.value)))
+            self.bridge.on_update(lambda _: self._bridged(str(self.bridge.value)))
+            # The time each picture shows (None: all of it), kept between drawings.
+            self.windows: dict[Picture, Window | None] = dict.fromkeys(PICTURES)
+            zoom = gui.add_button_group("Zoom lanes", ("All", "In", "Out"))
+            zoom.on_click(lambda e: self._zoom(str(e.target.value)))
             # Another session of the plan, drawn under this one's lanes.
-            self.compare = CompareView(gui, store, lambda: self._draw_lanes(self.shown_step))
+            self.compare = CompareView(gui, store, self._compared)
             self.summary = gui.add_markdown("")
             # The frame that decided a camera answer, beside its event.
             self.frame_caption = gui.add_markdown("")
@@ -167,6 +179,7 @@ class ReviewPanel:
         self.timeline.max = max(2, len(self.events))
         self.timeline.disabled = not self.events
         self.timeline.value = 1
+        self.windows = dict.fromkeys(PICTURES)
         self.metrics.content = metrics_markdown(self.events, self.session.clock)
         self.compare.offer(self.session, self.events)
         self.show_step(0)
@@ -196,22 +209,47 @@ class ReviewPanel:
         if event.client is not None:
             self.show_step(int(self.timeline.value) - 1)
 
-    def _bar_clicked(self, value: str) -> None:
-        k = bridged_step(value)
-        if k is None or not self.events or self.executing:
+    def _bridged(self, value: str) -> None:
+        message = bridged(value)
+        if message is None or not self.events or self.executing:
             return
-        self._replaying.clear()  # the user takes over from a replay
-        self.timeline.value = min(k, len(self.events) - 1) + 1
-        self.show_step(k)
+        # Every message says what its picture showed: the next drawing keeps it.
+        if message.window is not None:
+            total = self._total(message.picture)
+            whole = message.window[0] <= 1e-6 and message.window[1] >= total - 1e-6
+            self.windows[message.picture] = None if whole else message.window
+        if message.what == "step" and message.step is not None and message.picture == "first":
+            k = message.step
+            self._replaying.clear()  # the user takes over from a replay
+            self.timeline.value = min(k, len(self.events) - 1) + 1
+            self.show_step(k)
+
+    def _total(self, picture: Picture) -> float:
+        return duration(self.events) if picture == "first" else self.compare.total()
+
+    def _zoom(self, how: str) -> None:
+        for picture in PICTURES:
+            self.windows[picture] = zoomed(self.windows[picture], self._total(picture), how)
+        self._draw_lanes(self.shown_step)
+
+    def _compared(self) -> None:
+        self.windows["second"] = None
+        self._draw_lanes(self.shown_step)
 
     def _draw_lanes(self, k: int) -> None:
-        """The session's lanes with the cursor at step `k` (and where a compared
-        session parted from it)."""
+        """The session's lanes with the cursor at step `k` (kept in the time shown),
+        a compared session's under them, and the legend."""
         if not self.events:
             self.lanes.content = HIDE_BRIDGE
             return
-        first = lanes_html(self.events, k, self.compare.marked, until=self.compare.until)
-        self.lanes.content = HIDE_BRIDGE + first + self.compare.below
+        self.windows["first"] = following(self.windows["first"], step_time(self.events, k),
+                                          duration(self.events))  # fmt: skip
+        first = lanes_html(self.events, k, self.compare.marked, window=self.windows["first"])
+        compared = self.compare.other is not None
+        marks = sources(self.events) | (sources(self.compare.other_events) if compared else set())
+        self.lanes.content = (HIDE_BRIDGE + SCRIPT_HTML + first
+                              + self.compare.below(self.windows["second"])
+                              + legend_html(marks, compared))  # fmt: skip
 
     def show_step(self, k: int) -> None:
         if not self.events or self.session is None or self.executing:
