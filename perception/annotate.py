@@ -42,12 +42,15 @@ def annotate(
     intrinsics: CameraIntrinsics | None = None,
     axes_origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
     labels: Mapping[str, str] | None = None,
+    text_scale: float = 1.0,
 ) -> Image:
     """A copy of `image` with the codes and the bench axes (at `axes_origin`) drawn;
-    `labels` may replace a part's id with longer words (its placement)."""
+    `labels` may replace a part's id with longer words (its placement). `text_scale`
+    enlarges the words for a picture that will be shown smaller than it is."""
     out = image.copy()
     scale = max(out.shape[1] / 640, 0.6)
     thickness = max(round(2 * scale), 1)
+    font = 0.45 * scale * text_scale
     for d in detections:
         is_part = isinstance(d.code, PartCode)
         colour = PART_COLOUR if is_part else REFERENCE_COLOUR
@@ -58,10 +61,13 @@ def annotate(
         else:
             text = d.code.name
         x, y = int(d.corners[:, 0].min()), int(d.corners[:, 1].min()) - 4
-        cv2.putText(out, text, (x, max(y, 12)), cv2.FONT_HERSHEY_SIMPLEX, 0.45 * scale,
-                    (0, 0, 0), thickness + 2, cv2.LINE_AA)  # fmt: skip
-        cv2.putText(out, text, (x, max(y, 12)), cv2.FONT_HERSHEY_SIMPLEX, 0.45 * scale,
-                    colour, thickness, cv2.LINE_AA)  # fmt: skip
+        (width, _), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, font, thickness)
+        x = max(min(x, out.shape[1] - width - 2), 0)  # the words whole, inside the frame
+        at = (x, max(y, round(12 * text_scale)))
+        cv2.putText(out, text, at, cv2.FONT_HERSHEY_SIMPLEX, font, (0, 0, 0), thickness + 2,
+                    cv2.LINE_AA)  # fmt: skip
+        cv2.putText(out, text, at, cv2.FONT_HERSHEY_SIMPLEX, font, colour, thickness,
+                    cv2.LINE_AA)  # fmt: skip
     if camera is not None and intrinsics is not None:
         h, w = out.shape[:2]
         if (w, h) != (intrinsics.width, intrinsics.height):
@@ -75,6 +81,6 @@ def annotate(
                 tip = tuple(int(v) for v in np.round(end))
                 cv2.arrowedLine(out, start, tip, colour, thickness + 1, cv2.LINE_AA,
                                 tipLength=0.2)  # fmt: skip
-                cv2.putText(out, name, tip, cv2.FONT_HERSHEY_SIMPLEX, 0.5 * scale, colour,
+                cv2.putText(out, name, tip, cv2.FONT_HERSHEY_SIMPLEX, font * 10 / 9, colour,
                             thickness, cv2.LINE_AA)  # fmt: skip
     return out

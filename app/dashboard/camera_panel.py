@@ -9,13 +9,18 @@ their sensing answers from it, surprises included (with the simulated camera,
 a simulated human first acts out each click); a camera that cannot be opened
 is said in one line and the clicks keep answering. See stage.py for the panel
 pattern.
+
+The docked panel is a column's width (~300 px): its frame names each part in
+letters big enough to read there, and the words of what is believed of it are
+listed below. "Enlarge" is each page's own: it opens, on that page only, a
+window with the frame at its own size and the long labels, without moving the
+docked panels (frame_window.py).
 """
 
 from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +28,7 @@ import cv2
 import numpy as np
 import viser
 
+from app.dashboard.frame_window import FrameWindows
 from app.dashboard.operator import Operator
 from app.dashboard.scenario_folders import RefusedName, find_recording
 from app.dashboard.stage import CameraChanged, Events, ScenarioChanged, Stage
@@ -35,7 +41,8 @@ from perception.annotate import annotate
 from perception.frames import SourceError
 
 SOURCES = ("simulated", "webcam", "video file", "image folder")
-VIEW_WIDTH = 640  # px sent to the page: the frame's own width, so its labels read
+VIEW_WIDTH = 640  # px sent to the page: the frame's own width
+DOCKED_TEXT = 2.4  # the docked frame shows at ~300 px: its words drawn 2.4 times larger
 SHOW_EVERY_S = 0.2  # the page's view refreshes five times a second at most
 
 
@@ -62,8 +69,9 @@ class CameraPanel:
         events: Events,
         operator: Operator,
         recordings: Path,
-        on_enlarge: Callable[[bool], None] = lambda _: None,
+        tab: Any,
     ) -> None:
+        """`tab`: the panel's container, where each page gets its own Enlarge box."""
         self.recordings = recordings
         self.stage = stage
         self.events = events
@@ -84,15 +92,15 @@ class CameraPanel:
                 "stop the camera", lambda _: self.stop("Camera stopped: clicks answer.")
             )
         )
-        self.status = gui.add_markdown("No camera: clicks answer.")
+        self.windows = FrameWindows(tab, order=self.stop_button.order + 0.5)
+        # The frame first, where the panel opens; what the camera is doing below it.
         self.view = gui.add_image(
             np.zeros((VIEW_WIDTH * 3 // 4, VIEW_WIDTH, 3), np.uint8), format="jpeg",
             jpeg_quality=80, visible=False,
         )  # fmt: skip
+        self.status = gui.add_markdown("No camera: clicks answer.")
         self.rate = gui.add_markdown("")
         self.beliefs = gui.add_markdown("")
-        self.enlarge: Any = gui.add_checkbox("Enlarge (float at the frame's size)", False)
-        self.enlarge.on_update(lambda _: on_enlarge(bool(self.enlarge.value)))
         events.subscribe(ScenarioChanged, self._scenario_changed)
 
     def _scenario_changed(self, _: ScenarioChanged) -> None:
@@ -145,6 +153,7 @@ class CameraPanel:
         self.start_button.disabled = False
         # No stale picture: a stopped camera shows nothing.
         self.view.visible = False
+        self.windows.show(None)
         self.rate.content = self.beliefs.content = ""
         self.last_annotated = None
         if why is not None:
@@ -163,15 +172,20 @@ class CameraPanel:
         observation, world = view.perceived.observation, view.perceived.world
         labels = {pid: f"{pid}: {belief_words(p)}" for pid, p in world.parts.items()}
         x0 = live.layout.bench_x[0]
-        annotated = annotate(
-            view.frame.image, observation.detections, observation.camera, live.intrinsics,
-            axes_origin=(x0, 0.0, live.layout.bench_top_z), labels=labels,
-        )  # fmt: skip
-        self.last_annotated = annotated
-        h, w = annotated.shape[:2]
-        small = cv2.resize(annotated, (VIEW_WIDTH, round(h * VIEW_WIDTH / w)),
-                           interpolation=cv2.INTER_AREA)  # fmt: skip
-        self.view.image = cv2.cvtColor(small, cv2.COLOR_BGR2RGB)
+
+        def drawn(words: dict[str, str] | None, text_scale: float) -> np.ndarray:
+            annotated = annotate(
+                view.frame.image, observation.detections, observation.camera,
+                live.intrinsics, axes_origin=(x0, 0.0, live.layout.bench_top_z),
+                labels=words, text_scale=text_scale,
+            )  # fmt: skip
+            return annotated
+
+        # The frame at its own size, with each part's placement (enlarged windows)...
+        self.last_annotated = annotated = drawn(labels, 1.0)
+        self.windows.show(rgb_at_view_width(annotated))
+        # ...and docked, with only the parts' names, drawn to be read at ~300 px.
+        self.view.image = rgb_at_view_width(drawn(None, DOCKED_TEXT))
         if not self.view.visible:
             self.view.visible = True
         located = (
@@ -192,3 +206,12 @@ class CameraPanel:
 
     def close(self) -> None:
         self.stop(None)
+
+
+def rgb_at_view_width(annotated: np.ndarray) -> np.ndarray:
+    """An annotated (BGR) frame as the page gets it: RGB, `VIEW_WIDTH` wide."""
+    h, w = annotated.shape[:2]
+    small = cv2.resize(annotated, (VIEW_WIDTH, round(h * VIEW_WIDTH / w)),
+                       interpolation=cv2.INTER_AREA)  # fmt: skip
+    rgb: np.ndarray = cv2.cvtColor(small, cv2.COLOR_BGR2RGB)
+    return rgb

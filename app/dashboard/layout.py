@@ -4,24 +4,29 @@ Left, the main panel (the guide, then what a user does in order: scenario,
 plan, view, speech) above the camera panel; right, the plan tree (tabs: the
 tree, the selected node) above the execution panel (tabs: the execution's
 controls, the simulated human, the timeline and the log; the review of
-stored sessions). The bench's 3D view fills the
-middle. Every panel can be minimised, dragged out to float, or docked
-elsewhere by the user; the camera panel's "Enlarge" floats it at the
-frame's own size.
+stored sessions). The bench's 3D view fills the middle. Every panel can be
+minimised, dragged out to float, or docked elsewhere by the user.
 
-Widths are chosen for 1600×1000 and still leave the bench 460 px at
+The layout is each page's own. viser keeps a placement command sent to every
+page and replays it to every page that connects later, so one page's
+rearrangement sent that way would become every later visitor's layout: the
+shared layout is placed once, when the server starts, and everything after
+that (restoring the layout, the camera's enlarged frame) goes to the one page
+that asked.
+
+Widths are chosen for 1600×1000 and still leave the bench 452 px at
 1280×800 (measured in headless Chromium, see the README's screenshots).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import viser
+from viser._gui_handles import CONTROL_PANEL_ID, _PlacementMixin
 
 LEFT_PX = 320.0
 RIGHT_PX = 500.0
-CAMERA_FLOAT_PX = 680.0  # the camera's 640 px frame, with the panel's margins
 
 GUIDE = (
     "**Tandem** plans what a robot and a human do to build a table. "
@@ -32,32 +37,65 @@ GUIDE = (
 )
 
 
+class Placement(_PlacementMixin):
+    """viser's placement commands for the panel `uuid`, sent through `gui`: the
+    server's (every page, replayed to later ones) or one page's (`client.gui`)."""
+
+    def __init__(self, uuid: str, gui: viser.GuiApi) -> None:
+        self._placement_uuid = uuid
+        self._placement_gui_api = gui
+
+    def split(self, anchor: str, side: Literal["above", "below"]) -> None:
+        """Stack this panel against the docked panel `anchor` (in any scope: the
+        panels are the server's, a page's command only places them there)."""
+        self._set_position({"kind": "split", "anchor_uuid": anchor, "side": side})
+
+
 class Layout:
     """The panels and their tabs; `with layout.tree_tab:` builds into one."""
 
     def __init__(self, gui: viser.GuiApi) -> None:
         self.gui = gui
-        main = gui.main_panel
-        main.dock_left()
-        main.set_width(LEFT_PX)
         self.tree_panel = gui.add_panel()
         self.tree_tab: Any = self.tree_panel.add_tab("Plan tree")
         self.node_tab: Any = self.tree_panel.add_tab("Selected node")
-        self.tree_panel.dock_right()
-        self.tree_panel.set_width(RIGHT_PX)
         self.execution_panel = gui.add_panel()
         self.execution_tab: Any = self.execution_panel.add_tab("Execution")
         self.review_tab: Any = self.execution_panel.add_tab("Review")
-        self.execution_panel.dock_below(self.tree_panel)
         self.camera_panel = gui.add_panel()
         self.camera_tab: Any = self.camera_panel.add_tab("Camera")
-        self.camera_panel.dock_below(gui.main_panel)
-        self.camera_floating = False
+        self._arrange(gui)
 
-    def enlarge_camera(self, enlarge: bool) -> None:
-        """Float the camera panel at the frame's size, or dock it back."""
-        self.camera_floating = enlarge
-        if enlarge:
-            self.camera_panel.float(x=-20, y=20, width=CAMERA_FLOAT_PX, height=620)
-        else:
-            self.camera_panel.dock_below(self.gui.main_panel)
+    def restore(self, client: viser.ClientHandle) -> None:
+        """Put `client`'s panels back where a new page has them, at their widths
+        (after the user dragged, floated, docked or merged them); other pages keep
+        theirs."""
+        self._arrange(client.gui)
+
+    def _arrange(self, gui: viser.GuiApi) -> None:
+        tree_id = self.tree_panel._placement_uuid  # viser names a panel only there
+        main = Placement(CONTROL_PANEL_ID, gui)
+        tree = Placement(tree_id, gui)
+        execution = Placement(self.execution_panel._placement_uuid, gui)
+        camera = Placement(self.camera_panel._placement_uuid, gui)
+        main.dock_left()
+        tree.dock_right()
+        execution.split(tree_id, "below")
+        camera.split(CONTROL_PANEL_ID, "below")
+        # Every panel's width, not only the columns' first: a docked column is as
+        # wide as what its panels last asked for.
+        for placement, px in ((main, LEFT_PX), (camera, LEFT_PX), (tree, RIGHT_PX),
+                              (execution, RIGHT_PX)):  # fmt: skip
+            placement.set_width(px)
+
+    def add_restore_button(self, gui: viser.GuiApi) -> None:
+        """A button that restores the layout of the page it is clicked on."""
+        button = gui.add_button(
+            "Restore the layout", hint="Puts this page's panels back where they started."
+        )
+
+        def restore(event: viser.GuiEvent[Any]) -> None:
+            if event.client is not None:
+                self.restore(event.client)
+
+        button.on_click(restore)

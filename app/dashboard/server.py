@@ -105,6 +105,7 @@ class Dashboard:
             gui, screen, events, PlanSettings(s.workers, s.cache_dir, s.cluster)
         )
         self.view_panel = ViewPanel(gui, screen, events, lambda: server.get_clients().values())
+        panels.add_restore_button(gui)  # under View: each page's own layout
         try:
             self.store = SessionStore(data)
         except StoreError:
@@ -125,12 +126,14 @@ class Dashboard:
         with panels.camera_tab:
             self.camera_panel = CameraPanel(
                 gui, screen, events, self.operator, data / RECORDINGS_FOLDER,
-                on_enlarge=panels.enlarge_camera,
+                panels.camera_tab,
             )  # fmt: skip
         self.layout = panels
         if s.load_models:
             screen.bench.load_models(s.mesh_detail)
         server.on_client_connect(self.view_panel.greet)
+        server.on_client_connect(self.camera_panel.windows.greet)  # its own Enlarge box
+        server.on_client_disconnect(self.camera_panel.windows.leave)
         self.open_scenario(scenario_path)
 
     # -- what the panels and the stage hold -------------------------------------------
