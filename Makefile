@@ -50,6 +50,7 @@ bench: $(STAMP) system
 	$(BIN)/python -m app.benchmark.study_time
 	$(BIN)/python -m app.benchmark.dashboard_benchmark
 	$(BIN)/python -m app.benchmark.page_speed
+	$(BIN)/python -m app.benchmark.layout_check
 	$(BIN)/python -m app.benchmark.screenshots
 	$(BIN)/python -m app.benchmark.diagnosis_benchmark
 	$(BIN)/python -m perception.bench
