@@ -101,7 +101,8 @@ def test_scenario_edits_validate_and_save(tmp_path: Path) -> None:
     assert changed.scenario.preferences.safety == "strict"
     assert changed.scenario.part("foot2").dangerous
     assert changed.scenario.part("leg1").region == "shared"
-    assert changed.scenario.part("leg1").pose is None  # re-placed inside its new region
+    pose = changed.scenario.part("leg1").pose  # a free spot of its new region
+    assert pose is not None and 0.65 <= pose[0] <= 1.00
     bad = scenario_edit.edit(loaded.text, loaded.source, region={"leg1": "moon"})
     assert bad.scenario is None and "moon" in bad.error and "\n" not in bad.error
     folders = ScenarioFolders(tmp_path / "scenarios")

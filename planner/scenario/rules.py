@@ -62,6 +62,7 @@ def check(s: ScenarioSections) -> None:
     regions = [r.id for r in s.regions]
     for i, p in enumerate(s.parts):
         _check_part(i, p, regions)
+    _check_poses(s)
     if not s.goal.planned:
         _check_known(s)
     _check_classes(s)
@@ -192,6 +193,26 @@ def _check_part(i: int, p: Part, regions: list[str]) -> None:
         ((f"{at}.connections[{j}]", c) for j, c in enumerate(p.connection_points)),
         "connection point",
     )
+
+
+def _check_poses(s: ScenarioSections) -> None:
+    """A region's parts all have a pose, or none has. The layout lays out the parts
+    without one on a grid of their region, blind to the parts placed by pose
+    (planner.feasibility.scene), so a part left without one among placed parts can
+    be laid over them: the planner then reads a bench nobody meant (a leg lying
+    across the top puts the top out of every arm's reach)."""
+    for region in s.regions:
+        inside = [(i, p) for i, p in enumerate(s.parts) if p.region == region.id]
+        posed = [p.id for _, p in inside if p.pose is not None]
+        loose = [(i, p) for i, p in inside if p.pose is None]
+        if posed and loose:
+            i, p = loose[0]
+            raise FieldProblem(
+                f"parts[{i}].pose",
+                f"missing: {p.id} has no pose but {', '.join(posed)} in {region.id} have "
+                f"one, and the layout could lay {p.id} over them; give {p.id} a pose "
+                f"(or none of {region.id}'s parts one)",
+            )
 
 
 def _check_known(s: ScenarioSections) -> None:
