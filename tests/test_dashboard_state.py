@@ -12,6 +12,7 @@ from playwright.sync_api import Browser, Page, expect  # noqa: E402
 
 from app.dashboard.server import Dashboard  # noqa: E402
 from planner.resources import scenario_dir  # noqa: E402
+from planner.scenario.loading import load_scenario  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
     browser,  # noqa: F401  (the module's fixture)
     choose,
@@ -135,3 +136,75 @@ def test_the_page_says_preparing_before_the_first_step(page: Page, dashboard: Da
     page.get_by_text("Running", exact=False).first.wait_for()
     execution.executor.abort() if execution.executor else None
     wait_for(lambda: not execution.running)
+
+
+def _parts_open(page: Page) -> None:
+    """Opens the Parts folder (closed at first) unless it is open."""
+    if page.get_by_text("leg2 region", exact=True).count() == 0:
+        page.get_by_text("Parts", exact=True).first.click()
+    page.get_by_text("leg2 region", exact=True).wait_for()
+
+
+def _back_to_default(page: Page, dashboard: Dashboard) -> None:
+    choose(page, "Scenario", "default-ko.toml")
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.source == "default-ko.toml")
+    choose(page, "Scenario", "default.toml")
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.source == "default.toml")
+
+
+def test_a_part_moved_in_the_editor_plans_where_it_was_put(
+    page: Page, dashboard: Dashboard
+) -> None:
+    # leg2 to "shared": it used to lose its pose and lie across the top, and Plan said
+    # "no plan", blaming leg1 and the top's reach.
+    _parts_open(page)
+    choose(page, "leg2 region", "shared")
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.scenario is not None
+             and dashboard.loaded.scenario.part("leg2").region == "shared", 20)  # fmt: skip
+    assert dashboard.loaded.scenario is not None
+    pose = dashboard.loaded.scenario.part("leg2").pose
+    assert pose is not None and 0.65 <= pose[0] <= 1.00  # placed inside its new region
+    plan_clicked(page, dashboard, 120)
+    assert dashboard.plan is not None and dashboard.plan.statistics["L"] > 0
+    assert page.get_by_text("no plan", exact=False).count() == 0
+    shot(page, "editor-leg2-shared")
+    field(page, "Save as").fill("leg2-shared.toml")  # type: ignore[attr-defined]
+    wait_for(lambda: dashboard.scenario_panel.save_name.value == "leg2-shared.toml")
+    page.get_by_role("button", name="Save", exact=True).click()
+    page.get_by_text("Saved as", exact=False).first.wait_for()
+    saved = dashboard.folders.user.path / "leg2-shared.toml"
+    assert load_scenario(saved).part("leg2").pose == pose  # the file says where it stands
+    _back_to_default(page, dashboard)
+
+
+def test_save_as_refuses_a_name_with_a_space(page: Page, dashboard: Dashboard) -> None:
+    _parts_open(page)
+    before = sorted(dashboard.folders.user.path.glob("*"))
+    field(page, "Save as").fill("a b.toml")  # type: ignore[attr-defined]
+    wait_for(lambda: dashboard.scenario_panel.save_name.value == "a b.toml")
+    page.get_by_role("button", name="Save", exact=True).click()
+    page.get_by_text("a file name may have letters, digits", exact=False).first.wait_for()
+    assert sorted(dashboard.folders.user.path.glob("*")) == before  # nothing written
+    shot(page, "editor-refused-name")
+
+
+def test_loading_a_scenario_drops_the_voice_of_the_one_before(
+    page: Page, dashboard: Dashboard
+) -> None:
+    speech = dashboard.speech
+    choose(page, "Scenario", "default-ko.toml")
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.source == "default-ko.toml")
+    plan_clicked(page, dashboard, 120)
+    dashboard.execution.speed.value = 0.0
+    page.get_by_role("button", name="Execute plan", exact=True).click()
+    # The robot greets in Korean at once: the panel names the voice that spoke.
+    wait_for(lambda: "(ko)" in str(speech.engine.content), 60)
+    page.get_by_text("Voice:", exact=False).first.wait_for()
+    assert "(ko)" in page.get_by_text("Voice:", exact=False).first.inner_text()
+    wait_for(lambda: dashboard.execution.running, 30)
+    page.get_by_role("button", name="Abort", exact=True).click()
+    wait_for(lambda: not dashboard.execution.running, 30)
+    choose(page, "Scenario", "default.toml")
+    wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.source == "default.toml")
+    page.get_by_text("Voice: not spoken yet.", exact=True).first.wait_for()
+    assert "(ko)" not in page.content()

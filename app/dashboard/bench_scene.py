@@ -84,6 +84,12 @@ def label_words(
     return words
 
 
+def human_top_z(human: yourdfpy.URDF) -> float:
+    """The top of the drawn human's head (bench coordinates): the model is y-up, its
+    pelvis stood 1.0 m above the floor (`load_models`)."""
+    return FLOOR_Z + 1.0 + float(human.scene.bounds[1][1])
+
+
 class BenchScene:
     """Everything on and around the bench; `show(world)` moves parts and arms."""
 
@@ -127,8 +133,14 @@ class BenchScene:
         )
         human = yourdfpy.URDF.load(str(human_urdf()))
         reduce_detail(human, mesh_detail)
-        ViserUrdf(self.server, human, root_node_name="/human")
-        scene.add_label("/human_name", "human", position=(HUMAN_X, 0.0, FLOOR_Z + 1.85))
+        model = ViserUrdf(self.server, human, root_node_name="/human")
+        # ViserUrdf places its joints' frames only on an update: without one every
+        # limb is drawn at the pelvis, a short heap far below the name.
+        model.update_cfg(np.zeros(len(model.get_actuated_joint_names())))
+        scene.add_label(
+            "/human_name", "human", position=(HUMAN_X, 0.0, human_top_z(human) + 0.03),
+            anchor="bottom-center",
+        )  # fmt: skip
         self.show_arms({arm: list(q) for arm, q in HOME.items()})
 
     def load(self, scenario: Scenario) -> None:

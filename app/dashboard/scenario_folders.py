@@ -5,7 +5,8 @@ before the file system is touched: a name is relative, made of plain parts,
 ends in `.toml`, and once resolved (symlinks followed) stays inside one of the
 allowed folders. The shipped scenarios and the folders named with
 `--scenario-dir` are read-only; the user's folder (`scenarios/` in the data
-directory) is where "Save as" writes, by plain file name only. Refusals are
+directory) is where "Save as" writes, by plain file name only (letters, digits,
+'-', '_' and '.'). Refusals are
 one line that never quotes a file and never tells whether a file outside the
 folders exists.
 """
@@ -13,6 +14,7 @@ folders exists.
 from __future__ import annotations
 
 import os
+import re
 import unicodedata
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -24,6 +26,13 @@ USER_FOLDER = "scenarios"  # inside the data directory
 RECORDINGS_FOLDER = "recordings"  # inside the data directory: videos and image folders
 MAX_NAME_CHARS = 200  # a whole relative name; file systems allow 255 bytes per part
 SUFFIX = ".toml"
+# A name "Save as" writes: one word a shell, a URL and every file system take as it
+# is (a space would be the first thing to break a later `tandem plan NAME`).
+PLAIN_NAME = re.compile(r"\w[\w.-]*\.toml")
+PLAIN_NAME_RULE = (
+    "a file name may have letters, digits, '-', '_' and '.' only (no spaces), "
+    "and ends in .toml, e.g. my-bench.toml"
+)
 
 
 class RefusedName(ValueError):
@@ -102,6 +111,8 @@ class ScenarioFolders:
         parts = _relative_parts(plain)
         if len(parts) != 1:
             raise RefusedName(f"{name}: give a plain file name, without folders")
+        if not PLAIN_NAME.fullmatch(parts[0]):
+            raise RefusedName(f"{plain}: {PLAIN_NAME_RULE}")
         try:
             self.find(plain)
         except RefusedName:

@@ -10,6 +10,7 @@ panel is locked. See stage.py for the panel pattern.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
@@ -176,6 +177,7 @@ class ScenarioPanel:
         self.atomic = atomic
         self.scenario = OpenScenario(folders)
         self.executing = False
+        self._turn = threading.RLock()  # one load, edit or save at a time
         self._showing = False  # the panel itself sets its fields to a loaded scenario
         self.part_inputs: dict[str, PartInputs] = {}
         with gui.add_folder("Scenario"):
@@ -213,6 +215,10 @@ class ScenarioPanel:
         self.show_loaded(scenario_edit.load_named(self.scenario.folders, name))
 
     def show_loaded(self, loaded: Loaded) -> None:
+        with self._turn:
+            self._show_loaded(loaded)
+
+    def _show_loaded(self, loaded: Loaded) -> None:
         change = self.scenario.take(loaded)
         self.error.content = change.error or ""
         if change.scenario is None:
@@ -286,6 +292,12 @@ class ScenarioPanel:
     def _edited(self) -> None:
         if self.executing or self._showing:
             return
+        with self._turn:
+            self._take_edits()
+
+    def _take_edits(self) -> bool:
+        """The page's fields as they are now, applied to the loaded scenario; False
+        if they make no valid scenario (the line says why)."""
         change = self.scenario.edit(self.edits())
         if change.error is not None:
             self.error.content = change.error
@@ -293,16 +305,23 @@ class ScenarioPanel:
             self._mark_unsaved()
             self.stage.show_scenario(change.scenario)
             self.events.publish(ScenarioChanged(change.scenario, edited=True))
+        return not change.error
 
     def save(self) -> None:
-        """The loaded scenario as a file of the user's folder ("Save as")."""
-        saved = self.scenario.save(self.save_name.value)
-        if saved is None:
+        """The loaded scenario as a file of the user's folder ("Save as"), with every
+        edit the page's fields show (one clicked just before may still be on its way)."""
+        if self.executing:
             return
-        if saved.ok:
-            self._offer()
-        self._mark_unsaved()
-        self.error.content = saved.line
+        with self._turn:
+            if not self._take_edits():
+                return  # the page shows an edit that is refused: its line stays
+            saved = self.scenario.save(self.save_name.value)
+            if saved is None:
+                return
+            if saved.ok:
+                self._offer()
+            self._mark_unsaved()
+            self.error.content = saved.line
 
     def _lock(self, locked: bool) -> None:
         """While an execution runs nobody may change the scenario under it."""

@@ -31,7 +31,7 @@ from typing import Any, Literal
 
 import viser
 
-from app.dashboard.stage import Events, ExecutionFinished, Stage
+from app.dashboard.stage import Events, ExecutionFinished, ScenarioChanged, Stage
 from app.execution.events import OutcomeSource
 from app.execution.narration import Line, RobotVoice, plan_language
 from app.execution.walker import Narrator
@@ -103,12 +103,20 @@ class SpeechPanel:
         self.says["stop"].on_click(lambda _: self._say("stop"))
         self.says["continue"].on_click(lambda _: self._say("continue"))
         events.subscribe(ExecutionFinished, lambda _: self._finished())
+        events.subscribe(ScenarioChanged, self._scenario_changed)
         self.mode.on_update(lambda _: self._prepare())
 
     def _finished(self) -> None:
         self._listening(False)
         for button in self.says.values():
             button.disabled = True
+
+    def _scenario_changed(self, changed: ScenarioChanged) -> None:
+        """Another scenario has another language: the voice and the words heard were
+        the one before's (an edit keeps the language)."""
+        if not changed.edited:
+            self.engine.content = "Voice: not spoken yet."
+            self.heard.content = "Nothing heard yet."
 
     def _say(self, command: Command) -> None:
         """The simulated human says `command` into the live room, now."""
