@@ -202,9 +202,12 @@ def test_wheel_zooms_drag_pans_and_the_next_picture_keeps_the_time_shown(
         # A bar clicked in the zoomed picture: the review goes there, the picture
         # drawn again shows the same time.
         target = visible_bar(page, panned)
-        lanes(page).locator(f'g[data-step="{target}"] rect.target').click()
+        lanes(page).locator(f'g[data-step="{target}"]').click()
         wait_for(lambda: review.shown_step == target, 20)
-        wait_for(lambda: window_of(page) == pytest.approx(panned, abs=0.01), 20)
+        on_page(page, review.lanes.content)
+        assert window_of(page) == pytest.approx(panned, abs=0.01)
+        lanes(page).scroll_into_view_if_needed()
+        shot(page, "review-lanes-zoomed")
         page.get_by_role("button", name="All", exact=True).click()
         wait_for(lambda: window_of(page)[0] == 0 and review.windows["first"] is None, 20)
 
@@ -235,13 +238,14 @@ def test_every_robot_action_can_be_hovered_and_clicked(
             target.scroll_into_view_if_needed()
             width = (target.bounding_box() or {}).get("width", 0)
             assert width >= 8, (size, width)  # a finger's tip, at the whole session's zoom
-            target.hover()
+            bar = lanes(page).locator(f'g[data-step="{shortest}"]')
+            bar.hover()
             tip_box = page.locator("#tandem-lanes-tip")
             tip_box.wait_for(state="visible")
             words = tip_box.inner_text()
             assert events[shortest].node in words and str(events[shortest].action) in words
             shot(page, f"review-lanes-hover-{size[0]}x{size[1]}")
-            target.click()
+            bar.click()
             wait_for(lambda k=shortest: review.shown_step == k, 20)
             at = f"{events[shortest].end - min(e.start for e in events if e.start):.3f}"  # type: ignore[operator]
             wait_for(lambda p=page, t=at: lanes(p).locator("line.cursor").get_attribute(

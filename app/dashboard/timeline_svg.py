@@ -166,7 +166,12 @@ def _bar_svg(bar: Bar, window: Window, current: ExecutionEvent | None, name: str
     stroke = (f'stroke="{CURSOR_COLOUR}" stroke-width="2"' if event is current
               else 'stroke="#777" stroke-width="0.8"')  # fmt: skip
     box = f'y="{y}" height="{LANE_PX - 4}"'
-    parts = [_span(bar.start, bar.end, window, MIN_BAR, f'{box} rx="2" fill="{fill}" {stroke}')]
+    # The target takes the pointer, the bar drawn over it (as its mark) does not.
+    parts = [
+        _span(bar.start, bar.end, window, MIN_TARGET, f'{box} fill="transparent" class="target"'),
+        _span(bar.start, bar.end, window, MIN_BAR,
+              f'{box} rx="2" fill="{fill}" {stroke} pointer-events="none"'),
+    ]  # fmt: skip
     if bar.wait is not None:
         pattern = f"tandem-wait-{name}-{fill[1:]}"
         parts.append(_span(bar.wait, bar.end, window, 0.0,
@@ -178,8 +183,6 @@ def _bar_svg(bar: Bar, window: Window, current: ExecutionEvent | None, name: str
         mark = glyph(event.source, y + LANE_PX / 2 - 2)
         parts.append(f'<g data-at="{middle:.3f}" transform="translate({x:.1f},0)" '
                      f'pointer-events="none">{mark}</g>')  # fmt: skip
-    parts.append(_span(bar.start, bar.end, window, MIN_TARGET,
-                       f'{box} fill="transparent" class="target"'))  # fmt: skip
     return (f'<g class="bar" data-lane="{bar.lane}" data-node="{escape(event.node)}" '
             f'data-step="{bar.index}" data-tip="{escape(tip(bar))}">'
             f'{"".join(parts)}</g>')  # fmt: skip
