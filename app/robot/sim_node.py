@@ -284,6 +284,7 @@ class SimNode:
         short = self.topics.stall_rad
         stalled = stalled_joint(start, motion.last) if short > 0.0 else None
         end = motion.seconds + following.limits.goal_time
+        last_t: float | None = None  # when the arm was last commanded
         while True:
             t = time.monotonic() - began
             if self._interrupted(server, motion, t, following.abort_at):
@@ -292,13 +293,20 @@ class SimNode:
                 break
             if t >= 0.0:
                 command, velocity = self._command(motion, t, start, stalled, short)
-                off = path_error(following.limits, self.model.positions(), command)
+                # The arm is measured against the path where it was last commanded: a
+                # late tick of this process (a loaded machine) is not the arm's error; a
+                # stall is. The first tick measures the start against the path's.
+                path = command
+                if last_t is not None:
+                    path = self._command(motion, last_t, start, None, 0.0)[0]
+                off = path_error(following.limits, self.model.positions(), path)
                 if off is not None:
                     self._hold(motion)
                     text = f"{off[0]} was {off[1]:+.4f} rad off its path {t:.2f} s in"
                     server.set_aborted(self._result("PATH_TOLERANCE_VIOLATED", text), text)
                     return
                 self.model.set(command, velocity)
+                last_t = t
             self.stop.wait(self.tick_s)
         self._hold(motion)
         self._judge(server, motion, following.limits)
