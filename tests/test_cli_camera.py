@@ -15,6 +15,7 @@ import cv2
 import pytest
 
 from app.responses.sim_camera import sim_scene
+from app.sessions.store import SessionStore
 from perception.intrinsics import CameraIntrinsics
 from perception.sim import CameraPlacement, SimulatedCamera
 from planner.resources import find_scenario
@@ -180,6 +181,9 @@ def test_execute_takes_the_calibration_of_a_real_camera(
     said = until_said("-> no (camera)", "execute", "default.toml", "--responses", camera,
                       "--calibration", str(calibration), env=env)  # fmt: skip
     assert "-> no (camera)" in said, said
+    # A recording's frames carry no time of this run: the session says it is untimed.
+    with SessionStore(tmp_path, read_only=True) as store:
+        assert [s.clock for s in store.list_sessions()] == [None]
     missing = tmp_path / "missing.json"
     line = one_line("execute", "default.toml", "--responses", "camera:sim",
                     "--calibration", str(missing))  # fmt: skip

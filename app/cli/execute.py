@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from app.cli.exit_codes import BAD_INPUT, BadInput
 from app.cli.robot_args import register_robot_args, robot_from_args
 from app.cli.voice_args import voice_from_args
-from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, Result
+from app.execution.events import REPAIR, Clock, ExecutionEvent, OutcomeSource, Result
 from app.execution.repair import Repairer
 from app.execution.retargeting import retargeter_for
 from app.execution.timing import SimulatedTimeline, Timeline, WallTimeline
@@ -249,6 +249,16 @@ def _timeline(args: argparse.Namespace, seed: int | None, scenario: Scenario | N
     return SimulatedTimeline(seed or 0, human)
 
 
+def _clock(args: argparse.Namespace, timeline: Timeline) -> Clock | None:
+    """The session's clock; None (untimed) for a run from a recording (a video file, an
+    image folder): its frames carry no time of this run, so the human's actions in it
+    cannot be timed, and a session without them would read as a human who never acted."""
+    spec = str(args.responses)
+    camera = spec[len("camera:") :] if spec.startswith("camera:") else None
+    recording = camera is not None and camera != "sim" and not camera.startswith("webcam")
+    return None if recording else timeline.clock
+
+
 def run(args: argparse.Namespace) -> int:
     by_voice, seeded = _check(args)
     calibration = _calibration(args)  # before planning: a bad file is said at once
@@ -266,7 +276,7 @@ def run(args: argparse.Namespace) -> int:
         note = f"seed {seed}" + (f"; {note}" if note else "")
     timeline = _timeline(args, seed, scenario)
     with SessionStore(args.data_dir) as store:
-        session_id = store.start(plan, note=note, clock=timeline.clock)
+        session_id = store.start(plan, note=note, clock=_clock(args, timeline))
         print(f"session {session_id}", flush=True)
         # A surprise (a scripted `!` line) plans again from what was observed.
         repairing = Repairer(scenario, store.add_plan).repair if scenario is not None else None
