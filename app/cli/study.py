@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import csv
 import multiprocessing as mp
+import os
 import signal
 import sys
 from collections.abc import Callable, Iterator, Sequence
@@ -94,8 +95,12 @@ def run(args: argparse.Namespace) -> int:
         try:
             run_jobs(todo, store, args.cluster, args.workers)
             rows = write_results(study, store, out)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as stop:
             print("interrupted: run the same command again to go on", file=sys.stderr)
+            if isinstance(stop, Abandoned):
+                store.close()  # every stored session is committed; then end at once
+                sys.stderr.flush()
+                os._exit(130)
             return 130
     print(f"{len(rows)} sessions; wrote {out / 'sessions.csv'}, {out / 'summary.csv'} "
           f"and {out / 'summary.png'}")  # fmt: skip
@@ -127,11 +132,24 @@ def run_jobs(todo: Sequence[Job], store: SessionStore, cluster: str | None, work
             _keep(store, run, plans)
         return
     processes = min(workers or mp.cpu_count(), len(todo))
-    # A Ctrl-C leaves the workers to this process (they ignore it): `terminate` ends
-    # them with their sessions, which were never stored and run again on resume.
-    with mp.get_context("fork").Pool(processes, initializer=_die_with_parent) as pool:
+    pool = mp.get_context("fork").Pool(processes, initializer=_die_with_parent)
+    try:
         for run in pool.imap_unordered(_run_job, todo):
             _keep(store, run, plans)
+    except KeyboardInterrupt:
+        # A Ctrl-C leaves the workers to this process (they ignore it): they end with
+        # their sessions, never stored, which a resumed run runs again.
+        for worker in mp.active_children():  # the pool's workers
+            worker.kill()
+        raise Abandoned from None
+    pool.close()
+    pool.join()
+
+
+class Abandoned(KeyboardInterrupt):
+    """A Ctrl-C ended the local workers. The pool's own teardown would wait for ever on
+    a queue lock a killed worker may hold (multiprocessing's Pool), so the process
+    ends without it (`os._exit`) once what it stored is committed."""
 
 
 def _keep(store: SessionStore, run: SessionRun, plans: Plans) -> None:
