@@ -40,7 +40,7 @@ run: $(STAMP)
 	$(BIN)/tandem dashboard --scenario static/scenarios/default.toml
 
 test: $(STAMP) system
-	$(BIN)/pytest -q --durations=25
+	$(BIN)/pytest -q -n 2 --dist loadgroup --durations=25
 
 bench: $(STAMP) system
 	$(BIN)/tandem bench
