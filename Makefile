@@ -3,7 +3,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test bench lint system robot screenshots
+.PHONY: run test bench lint system robot screenshots docs
 
 # The dashboard soak in `make bench`: 5 pages for this long.
 SOAK_MINUTES ?= 10
@@ -65,6 +65,11 @@ soak-hour: $(STAMP) system
 # The dashboard's screenshots (docs/screenshots), taken in headless chromium.
 screenshots: $(STAMP) system
 	$(BIN)/python -m app.benchmark.screenshots
+
+# The manual (docs/ and the docstrings) as a site in site/; strict, so a broken
+# link, anchor or page fails.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 lint: $(STAMP)
 	$(BIN)/ruff check planner app perception speech tests
