@@ -225,6 +225,16 @@ class BenchScene:
         self._place_labels(anchors, words)
         self.show_arms(world.arms)
 
+    def drawn(self) -> dict[str, tuple[tuple[float, ...], str | None]]:
+        """What the bench shows of each part: where its box is (mm) and its label's
+        words (None: no label, the part is in an assembly's)."""
+        out: dict[str, tuple[tuple[float, ...], str | None]] = {}
+        for pid, handle in self._part_handles.items():
+            label = self._label_handles[pid]
+            where = tuple(round(float(v) * 1000) for v in handle.position)
+            out[pid] = (where, label.text if label.visible else None)
+        return out
+
     def _place_labels(self, anchors: dict[str, Point3], texts: dict[str, str]) -> None:
         """Labels where none covers another on the "Bench" camera; one lifted above
         its part hangs from a thin line down to it."""

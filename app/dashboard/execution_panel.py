@@ -279,7 +279,7 @@ class ExecutionPanel:
                     if paused else f"**Running** session {self.session_id}."
                 )  # fmt: skip
             return
-        self._steps.append(Step(event.node, event.source, event.confidence))
+        self._steps.append(Step(event.node, event.source, event.confidence, event.outcome))
         self.stage.go_to(event.node, show_world=event.motion is None, path=tuple(self._steps))
         self.strip.content = strip_svg([e.node for e in self._steps], self._kinds())
         if event.kind == REPAIR and event.plan is not None:
@@ -316,8 +316,9 @@ class ExecutionPanel:
         self._clear_answers()
         if offer is None:
             return
-        # The node asking is the one running: the tree and the selection show it.
-        self.stage.go_to(offer.node_id, show_world=False, path=tuple(self._steps))
+        # The node asking is the one running: the tree, the selection and the bench
+        # show it, the bench as a click on it in the tree would (node_world.py).
+        self.stage.go_to(offer.node_id, path=tuple(self._steps))
         with self._lock:
             # Sensing a part's shape or length asks what is on the bench, not the human.
             part = isinstance(offer.action, SenseShapeOf | SenseLengthOf)

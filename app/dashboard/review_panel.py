@@ -261,7 +261,7 @@ class ReviewPanel:
             self.shown = self.plans[k]
             self.stage.show_plan(self.shown)
         # The tree marks the path to this step, as it did during the execution.
-        steps = tuple(Step(e.node, e.source, e.confidence) for e in self.events[: k + 1])
+        steps = tuple(Step(e.node, e.source, e.confidence, e.outcome) for e in self.events[: k + 1])
         self.stage.go_to(event.node, path=steps)
         self._draw_lanes(k)
         s = self.session

@@ -5,6 +5,13 @@ and clicks reach it from different threads, so one lock keeps the plan, the
 tree and the selection in step; selecting a node is announced on `Events`
 (`NodeSelected`) and showing or dropping a complete plan too (`PlanChanged`).
 
+A node clicked in the tree is shown in two beats: the picture's frame and the
+node's details at once, the bench `BENCH_AFTER_S` later. A browser without a
+GPU draws the bench in software for a few hundred milliseconds, and a bench
+sent with the frame would hold the frame back until it is drawn. What the bench
+shows at a node comes from node_world.py, for a click, a run and a review
+alike.
+
 viser keeps every message in a buffer it replays to pages that join later, and
 a removed element (a question's answer buttons) leaves its
 removal there until a page connects; the screen sweeps those out when an
@@ -21,10 +28,10 @@ from collections.abc import Callable, Mapping
 import viser
 
 from app.dashboard.bench_scene import BenchScene
+from app.dashboard.node_world import node_world
 from app.dashboard.stage import Events, ExecutionFinished, NodeSelected, PlanChanged
 from app.dashboard.tree_svg import Step
 from app.dashboard.tree_view import TreeView
-from app.execution.world import world_at
 from planner.plan.model import Plan
 from planner.scenario.model import Scenario
 
@@ -40,6 +47,7 @@ def _malloc_trim() -> Callable[[int], int] | None:
 
 
 _TRIM = _malloc_trim()
+BENCH_AFTER_S = 0.12  # a clicked node's bench follows its frame in the tree by this
 
 
 class Screen:
@@ -52,10 +60,12 @@ class Screen:
         self.events = events
         self.server = server
         self.bench = BenchScene(server, load_models=False)
-        self.tree = TreeView(server.gui, self.select)
+        self.tree = TreeView(server.gui, self.clicked)
         self.plan: Plan | None = None
         self.scenario: Scenario | None = None
         self.selected: str | None = None
+        self.bench_at: str | None = None  # the node whose world the bench shows
+        self._soon: threading.Timer | None = None  # a clicked node's bench, to come
         self.current_arms: dict[str, list[float]] = {}
         # Reentrant: a `NodeSelected` subscriber may drive the stage again.
         self._lock = threading.RLock()
@@ -88,8 +98,9 @@ class Screen:
 
     def drop_plan(self) -> None:
         with self._lock:
+            self._cancel_soon()
             self.plan = None
-            self.selected = None
+            self.selected = self.bench_at = None
             self.tree.clear()
         self.events.publish(PlanChanged(None))
 
@@ -114,12 +125,33 @@ class Screen:
             if plan is None or tree is None or node_id not in plan.nodes:
                 return
             self.selected = node_id
-            lineage = tree.lineage(node_id)
             self.tree.highlight(node_id)
             if show_world:
-                self._show_world(plan, lineage)
-            parent = lineage[-2] if len(lineage) > 1 else None
+                self._show_world(plan, node_id)
+            parent = tree.parent.get(node_id)
             self.events.publish(NodeSelected(node_id, plan.nodes[node_id], parent))
+
+    def clicked(self, node_id: str) -> None:
+        """A node clicked in the tree (or found): selected at once, its bench
+        drawn a moment later unless another node was selected meanwhile."""
+        self.select(node_id, show_world=False)
+        with self._lock:
+            if self.selected != node_id:
+                return
+            self._cancel_soon()
+            self._soon = threading.Timer(BENCH_AFTER_S, self._bench_if_selected, (node_id,))
+            self._soon.daemon = True
+            self._soon.start()
+
+    def _bench_if_selected(self, node_id: str) -> None:
+        with self._lock:
+            if self.selected == node_id and self.plan is not None:
+                self._show_world(self.plan, node_id)
+
+    def _cancel_soon(self) -> None:
+        if self._soon is not None:
+            self._soon.cancel()
+            self._soon = None
 
     def go_to(
         self, node_id: str, *, show_world: bool = True, path: tuple[Step, ...] | None = None
@@ -142,15 +174,20 @@ class Screen:
     def show_world(self, node_id: str) -> None:
         """The bench as `node_id` leaves it (after an arm's motion has been played)."""
         with self._lock:
-            if self.plan is not None and self.tree.tree is not None:
-                self._show_world(self.plan, self.tree.tree.lineage(node_id))
+            if self.plan is not None:
+                self._show_world(self.plan, node_id)
 
-    def _show_world(self, plan: Plan, lineage: list[str]) -> None:
-        world = world_at(
-            plan.nodes, lineage, self.bench.boxes, human_edge_x=self.bench.human_edge_x
-        )
+    def _show_world(self, plan: Plan, node_id: str) -> None:
+        """The bench at `node_id` (node_world.py), by the path the tree marks now."""
+        tree = self.tree.tree
+        if tree is None or node_id not in tree.depth:
+            return
+        self._cancel_soon()  # whatever was to come is older than this
+        world = node_world(plan.nodes, tree, node_id, self.tree.marks.path, self.bench.boxes,
+                           human_edge_x=self.bench.human_edge_x)  # fmt: skip
         self.bench.show(world)
         self.current_arms = world.arms
+        self.bench_at = node_id
 
     def arms(self) -> dict[str, list[float]]:
         return dict(self.current_arms)

@@ -62,11 +62,13 @@ LEGEND: tuple[tuple[str, str], ...] = (
 
 @dataclass(frozen=True)
 class Step:
-    """A node an execution passed: who answered its question, and how sure."""
+    """A node an execution passed: who answered its question, how sure, and the
+    answer (None: not answered yet, or no question)."""
 
     node: str
     source: AnswerSource | None = None
     confidence: float | None = None
+    outcome: str | None = None
 
 
 @dataclass(frozen=True)
