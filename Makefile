@@ -9,16 +9,21 @@ STAMP := $(VENV)/.installed
 SOAK_MINUTES ?= 10
 
 # Debian packages: chromium for the browser tests, espeak-ng as the offline
-# voice, PortAudio for the microphone and speakers, and ROS 1 (roscore, rospy,
-# actionlib and the messages Baxter's interface uses) for `--robot ros` and
-# `tandem robot sim`. Installed once if missing.
+# voice, PortAudio for the microphone and speakers, PulseAudio with ALSA's pulse
+# plugin for the tests' virtual microphone (a null sink's monitor, which
+# PortAudio opens), and ROS 1 (roscore, rospy, actionlib and the messages
+# Baxter's interface uses) for `--robot ros` and `tandem robot sim`. Installed
+# once if missing.
 ROS_PACKAGES := ros-core python3-rospy python3-actionlib python3-actionlib-msgs \
 	python3-trajectory-msgs python3-sensor-msgs python3-std-msgs python3-rosbag \
 	python3-genpy python3-genmsg python3-rosgraph
-SYSTEM_PACKAGES := chromium espeak-ng libportaudio2 $(ROS_PACKAGES)
+SOUND_PACKAGES := pulseaudio pulseaudio-utils libasound2-plugins
+SYSTEM_PACKAGES := chromium espeak-ng libportaudio2 $(SOUND_PACKAGES) $(ROS_PACKAGES)
 system:
 	test -x /usr/bin/chromium && test -x /usr/bin/espeak-ng && \
 		test -n "$$(ldconfig -p | grep libportaudio.so.2)" && test -x /usr/bin/roscore && \
+		test -x /usr/bin/pulseaudio && test -x /usr/bin/paplay && \
+		test -e /usr/share/alsa/alsa.conf.d/50-pulseaudio.conf && \
 		/usr/bin/python3 -c 'import rospy, actionlib, genpy, genmsg, trajectory_msgs, sensor_msgs' \
 		2>/dev/null || { \
 		SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
