@@ -48,6 +48,7 @@ test: $(STAMP) system
 	$(BIN)/pytest -q -n 2 --dist loadgroup --durations=25
 
 bench: $(STAMP) system
+	$(BIN)/python -m app.benchmark.startup
 	$(BIN)/tandem bench
 	$(BIN)/python -m app.benchmark.scaling
 	$(BIN)/python -m app.benchmark.store_scale

@@ -9,13 +9,8 @@ traceback. Anything not listed is a bug and keeps its traceback.
 from __future__ import annotations
 
 import argparse
-
-from app.sessions.database import StoreError
-from app.sessions.store import UnknownSession
-from app.sources.outcomes import ScriptError
-from planner.scenario.loading import ScenarioError
-from planner.search.cluster import ClusterUnavailable
-from planner.search.errors import DeadEnd
+import sys
+from dataclasses import dataclass
 
 
 class BadInput(Exception):
@@ -26,24 +21,43 @@ OK = 0
 FAILED = 1  # the command ran and its answer is "no": no plan, violations, not a goal
 BAD_INPUT = 2  # the command could not run on what it was given
 
-EXIT_CODES: tuple[tuple[type[Exception], int], ...] = (
-    (DeadEnd, FAILED),
-    (ScenarioError, BAD_INPUT),
-    (BadInput, BAD_INPUT),
-    (ClusterUnavailable, BAD_INPUT),
-    (ScriptError, BAD_INPUT),
-    (UnknownSession, BAD_INPUT),
-    (StoreError, BAD_INPUT),
+
+@dataclass(frozen=True)
+class Handled:
+    """An error type, named by its module so that this table imports none of them."""
+
+    module: str
+    name: str
+    code: int
+
+    def matches(self, err: Exception) -> bool:
+        # An error can only be of a type whose module is loaded: one not loaded is
+        # not imported just to be compared (`tandem scenario check` would load the
+        # session store, and `tandem sessions list` the planner's search).
+        module = sys.modules.get(self.module)
+        error_type = getattr(module, self.name, None)
+        return isinstance(error_type, type) and isinstance(err, error_type)
+
+
+DEAD_END = Handled("planner.search.errors", "DeadEnd", FAILED)
+EXIT_CODES: tuple[Handled, ...] = (
+    DEAD_END,
+    Handled("planner.scenario.loading", "ScenarioError", BAD_INPUT),
+    Handled(__name__, "BadInput", BAD_INPUT),
+    Handled("planner.search.cluster", "ClusterUnavailable", BAD_INPUT),
+    Handled("app.sources.outcomes", "ScriptError", BAD_INPUT),
+    Handled("app.sessions.store", "UnknownSession", BAD_INPUT),
+    Handled("app.sessions.database", "StoreError", BAD_INPUT),
 )
-HANDLED: tuple[type[Exception], ...] = tuple(error for error, _ in EXIT_CODES)
 
 
-def exit_code(err: Exception) -> int:
-    return next(code for error, code in EXIT_CODES if isinstance(err, error))
+def exit_code(err: Exception) -> int | None:
+    """The exit code of an error the user can act on; None for a bug."""
+    return next((row.code for row in EXIT_CODES if row.matches(err)), None)
 
 
 def message(err: Exception, args: argparse.Namespace) -> str:
     """The error's line; a dead end names the input it was planned from."""
-    if isinstance(err, DeadEnd):
+    if DEAD_END.matches(err):
         return f"{args.input}: no plan: {err}"
     return str(err)
