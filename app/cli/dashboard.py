@@ -17,7 +17,7 @@ REMOTE_WARNING = (
     "warning: the dashboard listens on {host}, beyond this machine. viser cannot refuse "
     "a connection, so anyone who reaches port {port} can plan, open shipped and saved "
     "scenarios, save new ones, and run and answer executions. Prefer --host 127.0.0.1 "
-    "and an SSH tunnel (README, Security)."
+    "and an SSH tunnel (docs/security.md)."
 )
 
 
@@ -98,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.allow_remote:
             raise BadInput(
                 f"dashboard: --host {args.host} is reachable from other machines; "
-                "add --allow-remote if you mean it (README, Security)"
+                "add --allow-remote if you mean it (docs/security.md)"
             )
         print(REMOTE_WARNING.format(host=args.host, port=args.port), file=sys.stderr, flush=True)
     if args.cluster is not None:
