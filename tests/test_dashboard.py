@@ -213,6 +213,8 @@ def test_page_shows_bench_robot_and_human(page: Page, dashboard: Dashboard) -> N
 
 
 def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Dashboard) -> None:
+    from tests.test_dashboard_tree import settled
+
     page.get_by_role("button", name="Plan", exact=True).click()
     wait_for(lambda: dashboard.job is not None and dashboard.job.status.state == "done", 120)
     # The job reports "done" just before the page shows the plan and selects its root.
@@ -222,29 +224,31 @@ def test_plan_fills_the_tree_and_a_click_shows_a_node(page: Page, dashboard: Das
     page.get_by_text("Statistics", exact=True).first.click()  # a folder, closed at first
     page.get_by_text("meaning").wait_for()  # the statistics, with their legend
     page.locator(f'svg.tandem-tree [data-node="{dashboard.plan.root}"]').wait_for()
-    time.sleep(2.0)
+    settled(page, dashboard)
     shot(page, "plan-tree")
-    # Go to the root's child with the Selected node tab, back to the root...
+    # Go to the root's child with the selected node's buttons (under the tree), back
+    # to the root...
     root = dashboard.plan.root
     child = dashboard.plan.nodes[root].children[0].node
-    page.get_by_role("tab", name="Selected node").click()
     page.get_by_role("button", name="next", exact=True).click()
     wait_for(lambda: dashboard.selected == child)
     page.get_by_role("button", name="Parent", exact=True).click()
     wait_for(lambda: dashboard.selected == root)
-    page.get_by_role("tab", name="Plan tree").click()
-    # ...then click the child's box in the tree picture: the selection follows.
-    page.locator(f'svg.tandem-tree [data-node="{child}"] rect').last.click()
+    # ...then click the child's box in the tree picture where a person does, on its
+    # words, once the picture stands still: the selection follows.
+    settled(page, dashboard)
+    words = page.locator(f'svg.tandem-tree [data-node="{child}"] text.label').bounding_box()
+    assert words is not None
+    page.mouse.click(words["x"] + words["width"] / 2, words["y"] + words["height"] / 2)
     wait_for(lambda: dashboard.selected == child, 20)
     selected = page.locator(f'svg.tandem-tree [data-node="{child}"] rect[stroke="#d0209c"]')
     selected.wait_for()  # the picture marks it selected
     action = str(dashboard.plan.nodes[child].action)
-    page.get_by_role("tab", name="Selected node").click()
+    # The node's details, in the tree's own tab under the picture.
     page.locator("strong").get_by_text(action, exact=True).first.wait_for()
     shot(page, "node-selected")
-    page.get_by_role("tab", name="Plan tree").click()
     page.get_by_role("button", name="Bench", exact=True).click()
-    time.sleep(2.0)
+    wait_for(lambda: dashboard.screen.bench_at == child, 20)
     shot(page, "bench-at-node")
 
 

@@ -89,9 +89,7 @@ def test_loading_a_scenario_resets_plan_statistics_selection_and_log(
     page.get_by_text("No plan yet", exact=False).first.wait_for()
     assert page.get_by_text("The robot holds", exact=False).count() == 0
     expect(page.get_by_role("button", name="Execute plan", exact=True)).to_be_disabled()
-    page.get_by_role("tab", name="Selected node").click()
     page.get_by_text("Click a node of the plan tree", exact=False).first.wait_for()
-    page.get_by_role("tab", name="Plan tree").click()
     shot(page, "state-after-load")
     choose(page, "Scenario", "default.toml")
     wait_for(lambda: dashboard.loaded is not None and dashboard.loaded.source == "default.toml")

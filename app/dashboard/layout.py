@@ -1,11 +1,13 @@
 """Where the dashboard's panels stand: four docked panels around the bench.
 
 Left, the main panel (the guide, then what a user does in order: scenario,
-plan, view, speech) above the camera panel; right, the plan tree (tabs: the
-tree, the selected node) above the execution panel (tabs: the execution's
-controls, the simulated human, the timeline and the log; the review of
-stored sessions). The bench's 3D view fills the middle. Every panel can be
-minimised, dragged out to float, or docked elsewhere by the user.
+plan, view, speech) above the camera panel; right, the plan tree (the tree,
+and the selected node's details right under it, in one tab) above the
+execution panel (tabs: the execution's controls, the simulated human, the
+timeline and the log; the review of stored sessions). The bench's 3D view
+fills the middle. Every panel can be minimised, dragged out to float, or
+docked elsewhere by the user; "Wide" (the tree's View buttons) widens a
+page's right column over the bench, leaving the bench `BENCH_LEFT_PX`.
 
 The layout is each page's own. viser keeps a placement command sent to every
 page and replays it to every page that connects later, so one page's
@@ -27,6 +29,7 @@ from viser._gui_handles import CONTROL_PANEL_ID, _PlacementMixin
 
 LEFT_PX = 320.0
 RIGHT_PX = 500.0
+BENCH_LEFT_PX = 360.0  # the bench's width beside a wide tree
 
 GUIDE = (
     "**Tandem** plans what a robot and a human do to build a table. "
@@ -58,19 +61,33 @@ class Layout:
         self.gui = gui
         self.tree_panel = gui.add_panel()
         self.tree_tab: Any = self.tree_panel.add_tab("Plan tree")
-        self.node_tab: Any = self.tree_panel.add_tab("Selected node")
         self.execution_panel = gui.add_panel()
         self.execution_tab: Any = self.execution_panel.add_tab("Execution")
         self.review_tab: Any = self.execution_panel.add_tab("Review")
         self.camera_panel = gui.add_panel()
         self.camera_tab: Any = self.camera_panel.add_tab("Camera")
+        self._right_px: dict[int, float] = {}  # a page's right column, once widened
         self._arrange(gui)
 
     def restore(self, client: viser.ClientHandle) -> None:
         """Put `client`'s panels back where a new page has them, at their widths
         (after the user dragged, floated, docked or merged them); other pages keep
         theirs."""
+        self._right_px.pop(client.client_id, None)
         self._arrange(client.gui)
+
+    def widen_tree(self, client: viser.ClientHandle, wide: bool) -> None:
+        """Widen `client`'s right column (the tree, the execution) over the bench,
+        leaving the bench `BENCH_LEFT_PX`, or give it back its width; only that
+        page's."""
+        px = RIGHT_PX
+        if wide:
+            bench = float(client.camera.image_width)  # the 3D view's width on that page
+            right = self._right_px.get(client.client_id, RIGHT_PX)
+            px = max(RIGHT_PX, right + bench - BENCH_LEFT_PX)
+        self._right_px[client.client_id] = px
+        for panel in (self.tree_panel, self.execution_panel):
+            Placement(panel._placement_uuid, client.gui).set_width(px)
 
     def _arrange(self, gui: viser.GuiApi) -> None:
         tree_id = self.tree_panel._placement_uuid  # viser names a panel only there

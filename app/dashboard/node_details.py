@@ -5,6 +5,14 @@ from __future__ import annotations
 import html
 
 from planner.plan.model import STAT_KEYS, TIMING_KEYS, Plan, PlanNode
+from planner.vocabulary import (
+    SenseHumanAttachingWhere,
+    SenseHumanHolding,
+    SenseHumanHoldingWhichPart,
+    SenseHumanUnholding,
+    SenseLengthOf,
+    SenseShapeOf,
+)
 
 KIND_WORDS = {
     "actuation": "robot action",
@@ -15,13 +23,38 @@ KIND_WORDS = {
 }
 
 
+def sensing_why(node: PlanNode) -> str | None:
+    """Why the robot looks here: what it cannot know from the plan alone, and what
+    its answer decides (a sensing node's plan entry carries no reason)."""
+    action = node.action
+    if isinstance(action, SenseHumanHolding):
+        return ("the human may have taken a part since the robot last looked; whether "
+                "their hands are free decides what the robot may do next.")  # fmt: skip
+    if isinstance(action, SenseHumanHoldingWhichPart):
+        return ("the human holds a part, and which one it is decides what the robot "
+                "holds and attaches next.")  # fmt: skip
+    if isinstance(action, SenseHumanUnholding):
+        return (f"the human held {action.part}: the robot must know they let it go "
+                "before it works on it.")  # fmt: skip
+    if isinstance(action, SenseHumanAttachingWhere):
+        return (f"the human attaches {action.part} to {action.onto}; the slot they use "
+                "decides where the robot attaches the rest.")  # fmt: skip
+    if isinstance(action, SenseShapeOf | SenseLengthOf):
+        what = "shape" if isinstance(action, SenseShapeOf) else "length"
+        return (f"the scenario leaves {action.part}'s {what} open; each possible {what} "
+                "has its own way on.")  # fmt: skip
+    return None
+
+
 def details_markdown(node_id: str, node: PlanNode) -> str:
+    """The node in a few lines: its action, why, what may come of it, the state."""
     kind = node.kind
     lines = [f"**{node.action or 'goal'}**  ", f"`{node_id}` · {KIND_WORDS.get(kind, kind)}"]
     if node.say:
         lines += ["", f"Robot says: *“{node.say}”*"]
-    if node.why:
-        lines += ["", f"Why: {node.why}"]
+    why = node.why if node.why else sensing_why(node) if kind == "sensing" else None
+    if why:
+        lines += ["", f"Why: {why}"]
     motion = node.motion
     if motion:
         lines += ["", f"Motion: {motion.arm} arm, {len(motion.path)} waypoints"]
@@ -33,8 +66,8 @@ def details_markdown(node_id: str, node: PlanNode) -> str:
         )
         lines += ["", f"Outcomes: {outcomes} (bold: expected)"]
     state = node.state
-    lines += ["", "State before:", ""]
-    lines += [f"- `{f}`" for f in state] if state else ["- (nothing held or attached)"]
+    shown = ", ".join(f"`{f}`" for f in state) if state else "(nothing held or attached)"
+    lines += ["", f"State before: {shown}"]
     return "\n".join(lines)
 
 

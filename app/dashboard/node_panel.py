@@ -1,4 +1,4 @@
-"""The Selected node panel: what the selected node does, and where to go from it.
+"""The selected node, under the tree: what it does, and where to go from it.
 
 It follows the selection announced on `Events` (`NodeSelected`, whoever made
 it: a click in the tree, an execution, a review) and drives the stage to go
@@ -47,7 +47,7 @@ class NodePanel:
         self.stage = stage
         self.selected: str | None = None
         self.view: NodeView | None = None
-        self.folder = gui.add_folder("Details")
+        self.folder = gui.add_folder("Selected node")
         with self.folder:
             self.details = gui.add_markdown(NOTHING_SELECTED)
             self.toggle_button = gui.add_button("Collapse / expand", disabled=True)

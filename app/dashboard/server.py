@@ -95,10 +95,10 @@ class Dashboard:
         # The layout (layout.py): set-up, plan and review on the left, above the
         # camera; the tree and the selected node on the right, above the execution.
         panels = Layout(gui)
-        with panels.tree_tab:
+        with panels.tree_tab:  # the tree, and the selected node right under it
             self.screen = screen = Screen(server, events)
-        with panels.node_tab:
             self.node_panel = NodePanel(gui, screen, events)
+        screen.tree.on_width = panels.widen_tree
         gui.add_markdown(GUIDE)
         self.scenario_panel = ScenarioPanel(gui, screen, events, self.folders, server.atomic)
         self.plan_panel = PlanPanel(

@@ -3,9 +3,13 @@
 Pure (no viser): `draw(plan, layout, marks, view)` returns the SVG text the
 tree panel puts in the page. The layout (tree_layout.py) gives every visible
 node its own column and every depth its own row, and every column is as wide
-as the widest label (cut at `MAX_LABEL` characters, the whole text in the
-tooltip), so no two labels can overlap; zooming scales the picture as a
-whole, so they do not overlap at any zoom either.
+as the plan's widest label, whole (never cut), so no two labels can overlap;
+zooming scales the picture as a whole, so they do not overlap at any zoom
+either. The width comes from the whole plan, not the nodes shown, so opening
+a fold never widens the columns under the user's eyes.
+
+Only a node's box and a fold's badge take the pointer: its words (the label,
+the id, the outcome on its edge) let a click through to the box under them.
 
 What the marks say: the node being executed (orange, `current`), the nodes
 and edges an execution or a review passed (blue, `path`, each answered node
@@ -27,7 +31,6 @@ BOX_PX = 32.0  # a box's height: the action, then the node and its answer
 CHAR_PX = 6.7  # width of a character at FONT_PX (measured in Chromium's sans-serif)
 FONT_PX = 11.0
 SMALL_PX = 9.0
-MAX_LABEL = 30  # characters of an action shown in a box
 MARGIN_PX = 24.0
 GAP_PX = 18.0  # between neighbouring columns
 
@@ -43,6 +46,8 @@ CURRENT = "#ff7f0e"
 PATH = "#1f6fd1"
 SELECTED = "#d0209c"
 MATCH = "#fff200"
+# Words never take the pointer: a click on a label is the click on its box.
+_THROUGH = 'pointer-events="none"'
 
 # The legend, in the order the panel shows it: (swatch style, words).
 LEGEND: tuple[tuple[str, str], ...] = (
@@ -54,9 +59,12 @@ LEGEND: tuple[tuple[str, str], ...] = (
     (f"background:{FILLS['open']};border:1px dashed #999", "still planned"),
     ("border-top:3px solid #333;height:0", "expected branch"),
     ("border-top:2px dashed #8a8ad0;height:0", "shared state (reached twice)"),
-    (f"border-top:4px solid {PATH};height:0", "path taken"),
+    (f"border-top:4px solid {PATH};height:0", "path taken, · who answered"),
+    (f"background:{FILLS['actuation']};opacity:0.4", "faded: not taken"),
     (f"border:3px solid {CURRENT}", "executing now"),
     (f"border:3px solid {SELECTED}", "selected"),
+    (f"background:{MATCH}", "found (Find)"),
+    ("background:#555;border-radius:6px", "+N: a folded branch, click to open"),
 )
 
 
@@ -96,14 +104,26 @@ class Geometry:
 
 
 def label(node: PlanNode) -> str:
-    """The node's action in the paper's terms ("goal" at a goal), cut to fit a box."""
+    """The node's action in the paper's terms, whole ("goal" at a goal, "planning"
+    at a state still being planned)."""
     if node.action is None:
-        return "goal" if node.kind == "goal" else "…"
-    return _cut(str(node.action))
+        return "goal" if node.kind == "goal" else "planning"
+    return str(node.action)
 
 
-def _cut(text: str) -> str:
-    return text if len(text) <= MAX_LABEL else text[: MAX_LABEL - 1] + "…"
+_widest: dict[int, tuple[Plan, int, int]] = {}  # id(plan) -> (plan, nodes, widest label)
+
+
+def widest_label(plan: Plan) -> int:
+    """Characters of the plan's longest label (kept per plan: U10 has 7,240 nodes;
+    a growing plan is measured again when it has more)."""
+    known = _widest.get(id(plan))
+    if known is not None and known[0] is plan and known[1] == len(plan.nodes):
+        return known[2]
+    widest = max((len(label(n)) for n in plan.nodes.values()), default=4)
+    _widest.clear()  # one plan on screen at a time
+    _widest[id(plan)] = (plan, len(plan.nodes), widest)
+    return widest
 
 
 def is_question(node: PlanNode) -> bool:
@@ -111,8 +131,7 @@ def is_question(node: PlanNode) -> bool:
 
 
 def geometry(plan: Plan, layout: TreeLayout) -> Geometry:
-    widest = max((len(label(plan.nodes[n])) for n in layout.positions), default=4)
-    column = max(widest * CHAR_PX + 16.0, 110.0)
+    column = max(widest_label(plan) * CHAR_PX + 16.0, 110.0)
     boxes: dict[str, tuple[float, float]] = {}
     for node_id, (x, depth_y) in layout.positions.items():
         row = round(depth_y / 1.6)  # tree_layout's ROW
@@ -158,10 +177,10 @@ def _node_svg(plan: Plan, node_id: str, geo: Geometry, marks: TreeMarks,
                  f'fill="{fill}" '
                  f'stroke="{stroke}" stroke-width="{stroke_w}"{dash}/>')  # fmt: skip
     parts.append(f'<text class="label" x="{x + w / 2}" y="{y + 13}" text-anchor="middle" '
-                 f'font-size="{FONT_PX}">{escape(label(node))}</text>')  # fmt: skip
+                 f'font-size="{FONT_PX}" {_THROUGH}>{escape(label(node))}</text>')  # fmt: skip
     small = node_id + _answer_words(steps.get(node_id))
-    parts.append(f'<text x="{x + w / 2}" y="{y + 26}" text-anchor="middle" '
-                 f'font-size="{SMALL_PX}" fill="#444">{escape(small)}</text>')  # fmt: skip
+    parts.append(f'<text x="{x + w / 2}" y="{y + 26}" text-anchor="middle" font-size='
+                 f'"{SMALL_PX}" fill="#444" {_THROUGH}>{escape(small)}</text>')  # fmt: skip
     hidden = layout.hidden_below.get(node_id)
     if hidden:
         parts.append(_badge(node_id, x + w / 2, y + BOX_PX, hidden))
@@ -176,7 +195,7 @@ def _badge(node_id: str, cx: float, top: float, hidden: int) -> str:
     return (f'<g class="fold" data-toggle="{node_id}"><title>Open the {hidden} nodes below</title>'
             f'<rect x="{cx - w / 2}" y="{top + 3}" width="{w}" height="14" rx="7" fill="#555"/>'
             f'<text x="{cx}" y="{top + 13.5}" text-anchor="middle" font-size="{SMALL_PX}" '
-            f'fill="#fff">{text}</text></g>')  # fmt: skip
+            f'fill="#fff" {_THROUGH}>{text}</text></g>')  # fmt: skip
 
 
 def _edge_svg(edge: Edge, geo: Geometry, expected: set[tuple[str, str]],
@@ -197,10 +216,9 @@ def _edge_svg(edge: Edge, geo: Geometry, expected: set[tuple[str, str]],
     out = (f'<path d="M{x1},{y1} V{mid} H{x2} V{y2}" fill="none" stroke="{colour}" '
            f'stroke-width="{width}"/>')  # fmt: skip
     if edge.outcome is not None:
-        words = _cut(edge.outcome)
         out += (f'<text class="outcome" x="{x2}" y="{y2 - 5}" text-anchor="middle" '
-                f'font-size="{SMALL_PX + 1}" font-style="italic" fill="#333">'
-                f"{escape(words)}</text>")  # fmt: skip
+                f'font-size="{SMALL_PX + 1}" font-style="italic" fill="#333" {_THROUGH}>'
+                f"{escape(edge.outcome)}</text>")  # fmt: skip
     return out
 
 

@@ -26,6 +26,11 @@ from app.dashboard.tree_svg import LEGEND, Geometry, Step, TreeMarks, draw, geom
 from planner.plan.model import Plan
 
 VIEW_W, VIEW_H = 560.0, 520.0  # picture pixels shown at first (about the panel's size)
+# Fit shrinks a large tree only this far (picture pixels per screen pixel): its
+# 11 px labels stay about 7 px high, readable; the rest is reached by panning.
+FIT_MOST = 1.55
+ZOOMS = ("Fit", "In", "Out", "Root")
+WIDTHS = ("Wide", "Narrow")  # the tree's column beside the bench, per page
 BRIDGE = "tree:"  # what the hidden field's value starts with
 
 # The picture's handlers, defined once per page (an image that fails to load runs them).
@@ -37,7 +42,11 @@ _SCRIPT = (
     "report:function(s){clearTimeout(this.t);var b=s.viewBox.baseVal;"
     "this.t=setTimeout(function(){tandemTree.send('view:'+[b.x,b.y,b.width,b.height]"
     ".map(function(v){return v.toFixed(1)}).join(','))},250);},"
+    # The wheel zooms about the pointer; sideways (a trackpad, or Shift) it pans.
     "wheel:function(e){e.preventDefault();var s=e.currentTarget,b=s.viewBox.baseVal;"
+    "var r=s.getBoundingClientRect(),q=Math.max(b.width/r.width,b.height/r.height);"
+    "if(e.shiftKey||Math.abs(e.deltaX)>Math.abs(e.deltaY)){"
+    "b.x+=(e.shiftKey?e.deltaY:e.deltaX)*q;if(!e.shiftKey)b.y+=e.deltaY*q;this.report(s);return;}"
     "var p=new DOMPoint(e.clientX,e.clientY).matrixTransform(s.getScreenCTM().inverse());"
     "var k=Math.min(4,Math.max(0.25,Math.exp(e.deltaY*0.0015)));"
     "b.x=p.x-(p.x-b.x)*k;b.y=p.y-(p.y-b.y)*k;b.width*=k;b.height*=k;this.report(s);},"
@@ -50,22 +59,24 @@ _SCRIPT = (
     "up:function(e){var d=this.drag;this.drag=null;if(d&&d.moved){this.report(e.currentTarget);"
     "return;}var t=e.target.closest('[data-toggle]');"
     "if(t){this.send('toggle:'+t.dataset.toggle);return;}"
-    "var n=e.target.closest('[data-node]');if(n)this.send('select:'+n.dataset.node);}"
-    "};}"
-    # Each picture: report the element's size in pixels when it changed, so the
-    # server keeps one picture pixel per screen pixel at zoom 1.
-    "setTimeout(function(){var s=document.querySelector('svg.tandem-tree');if(!s)return;"
+    "var n=e.target.closest('[data-node]');if(n)this.send('select:'+n.dataset.node);},"
+    # The element's size in pixels when it changed (a panel resized or widened),
+    # so the server keeps one picture pixel per screen pixel at zoom 1.
+    "size:function(){var s=document.querySelector('svg.tandem-tree');if(!s)return;"
     "var r=s.getBoundingClientRect(),z=Math.round(r.width)+','+Math.round(r.height);"
-    "if(r.width>0&&z!==tandemTree.z){tandemTree.z=z;tandemTree.send('size:'+z);}},50);"
+    "if(r.width>0&&z!==tandemTree.z){tandemTree.z=z;tandemTree.send('size:'+z);}}"
+    "};setInterval(function(){tandemTree.size()},700);}"
+    "setTimeout(function(){tandemTree.size()},50);"
 )
 _HANDLERS = (
     'onwheel="tandemTree.wheel(event)" onpointerdown="tandemTree.down(event)" '
     'onpointermove="tandemTree.move(event)" onpointerup="tandemTree.up(event)" '
     'onpointerleave="tandemTree.drag=null"'
 )
-# The picture fills the tab's width and about the tree panel's height.
+# The picture fills the tab's width and most of the tree panel's height, leaving
+# the selected node's first lines below it in view.
 _SVG_STYLE = (
-    'style="width:100%;height:max(240px,calc(50vh - 110px));cursor:grab;'
+    'style="width:100%;height:max(210px,calc(50vh - 190px));cursor:grab;'
     'touch-action:none;user-select:none"'
 )
 _STYLE = (
@@ -76,13 +87,15 @@ EMPTY = "<p>No plan yet: press <b>Plan</b>.</p>"
 
 
 def legend_html() -> str:
+    """Every mark the picture draws, in a few short rows."""
     items = "".join(
-        f'<span style="display:inline-flex;align-items:center;margin:0 10px 3px 0">'
-        f'<span style="display:inline-block;width:18px;height:11px;margin-right:4px;{style}">'
+        f'<span class="legend-item" style="display:inline-flex;align-items:center;'
+        f'margin:0 8px 2px 0;white-space:nowrap">'
+        f'<span style="display:inline-block;width:14px;height:9px;margin-right:3px;{style}">'
         f"</span>{words}</span>"
         for style, words in LEGEND
     )
-    return f'<div style="font-size:11px;line-height:1.3">{items}</div>'
+    return f'<div class="tandem-legend" style="font-size:10px;line-height:1.25">{items}</div>'
 
 
 class TreeView:
@@ -90,6 +103,9 @@ class TreeView:
 
     def __init__(self, gui: viser.GuiApi, on_select: Callable[[str], None]) -> None:
         self.on_select = on_select
+        # Widens (True) or narrows a page's tree column (the layout's, set by the
+        # dashboard); None: the buttons do nothing.
+        self.on_width: Callable[[viser.ClientHandle, bool], None] | None = None
         self.plan: Plan | None = None
         self.tree: SpanningTree | None = None
         self.collapsed: set[str] = set()
@@ -106,16 +122,25 @@ class TreeView:
         self._lock = threading.RLock()
         self.bridge: Any = gui.add_text("tree events", BRIDGE)
         self.bridge.on_update(lambda _: self._bridged(str(self.bridge.value)))
-        with gui.add_folder("Find, zoom, legend", expand_by_default=False):
+        # Always at hand, one row: zoom, and the tree beside the bench (Wide) or not.
+        view = gui.add_button_group("View", (*ZOOMS, *WIDTHS))
+        view.on_click(self._view_clicked)
+        self.fit_note = gui.add_markdown("")
+        with gui.add_folder("Find, follow, legend", expand_by_default=False):
             self.find_text: Any = gui.add_text("Find action or node", "")
             self.find_button = gui.add_button("Find next")
             self.find_button.on_click(lambda _: self.find(str(self.find_text.value)))
             self.found = gui.add_markdown("")
             self.follow: Any = gui.add_checkbox("Follow the execution", True)
-            zoom = gui.add_button_group("Zoom", ("Fit", "In", "Out", "Root"))
-            zoom.on_click(lambda e: self.zoom(str(e.target.value)))
             gui.add_html(legend_html())
         self.picture = gui.add_html(_STYLE + EMPTY)
+
+    def _view_clicked(self, event: viser.GuiEvent[Any]) -> None:
+        what = str(event.target.value)
+        if what in ZOOMS:
+            self.zoom(what)
+        elif self.on_width is not None and event.client is not None:
+            self.on_width(event.client, what == "Wide")
 
     # -- what the page sends ------------------------------------------------------
 
@@ -170,6 +195,7 @@ class TreeView:
             self.plan = self.tree = self.current = self.geometry = None
             self.marks = TreeMarks()
             self.picture.content = _STYLE + EMPTY
+            self.fit_note.content = ""
 
     def _layout(self) -> None:
         assert self.plan is not None and self.tree is not None
@@ -188,11 +214,18 @@ class TreeView:
             self.picture.content = _STYLE + script + svg
 
     def toggle(self, node_id: str) -> None:
+        """Fold or open the branch below `node_id`; the node stays where it was on
+        the screen (the picture moves about it, not it about the picture)."""
         with self._lock:
-            if self.tree is None or not self.tree.children.get(node_id):
+            if self.tree is None or self.geometry is None or not self.tree.children.get(node_id):
                 return
+            was = self.geometry.centre(node_id)
             self.collapsed ^= {node_id}
             self._layout()
+            assert self.geometry is not None
+            now = self.geometry.centre(node_id)
+            x, y, w, h = self.view
+            self.view = (x + now[0] - was[0], y + now[1] - was[1], w, h)
             self.redraw()
 
     def expand_to(self, node_id: str) -> None:
@@ -251,8 +284,7 @@ class TreeView:
             x, y, w, h = self.view
             sw, sh = self.size
             if how == "Fit":
-                scale = max(geo.width / sw, geo.height / sh, 1.0)
-                self.view = (0.0, 0.0, sw * scale, sh * scale)
+                self._fit(geo)
             elif how in ("In", "Out"):
                 k = 0.7 if how == "In" else 1 / 0.7
                 cx, cy = x + w / 2, y + h / 2
@@ -263,6 +295,24 @@ class TreeView:
                 rx, _, rw, rh = self.view
                 self.view = (rx, 0.0, rw, rh)
             self.redraw()
+
+    def _fit(self, geo: Geometry) -> None:
+        """All of the tree if it is readable so, else as much as is readable: the
+        top, about the root, the rest one drag or sideways scroll away."""
+        assert self.plan is not None
+        sw, sh = self.size
+        scale = max(geo.width / sw, geo.height / sh, 1.0)
+        if scale <= FIT_MOST:
+            self.view = (0.0, 0.0, sw * scale, sh * scale)
+            self.fit_note.content = ""
+            return
+        w, h = sw * FIT_MOST, sh * FIT_MOST
+        x = geo.centre(self.plan.root)[0] - w / 2
+        self.view = (min(max(0.0, x), max(0.0, geo.width - w)), 0.0, w, h)
+        self.fit_note.content = (
+            f"The whole tree ({geo.width:,.0f} × {geo.height:,.0f} px) is too large to read "
+            "in this panel: drag, or scroll sideways, to see the rest."
+        )
 
     # -- finding ----------------------------------------------------------------------
 
