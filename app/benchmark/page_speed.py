@@ -6,8 +6,11 @@
   selected, against `tandem plan paper/U10.toml` as a process (start to
   exit, no cache for either); target: within 1.3× the command line.
 - **node click on U10**: a click on a box of the tree to the box framed as
-  selected on the page (the Selected node tab, hidden behind the tree's, is
-  written before the frame is sent); target 0.3 s (median of 20).
+  selected on the page and its details shown under the tree; target 0.3 s
+  (median of 20). The page draws the bench with Baxter's and the human's
+  meshes, as a person's does, and each click waits for the bench to follow
+  (its world sent) and for a person's glance (`GLANCE_S`) before the next.
+  The bench's own time to follow is printed beside it.
 - **execution start**: a click on Execute plan to the first step in the
   page's timeline, on the default scenario; target 1 s.
 
@@ -31,6 +34,7 @@ from app.dashboard.server import Dashboard
 from planner.plan.model import format_table
 
 BIG = "paper/U10.toml"
+GLANCE_S = 0.5  # between a node's bench drawn and the next click, as a person looks
 
 
 def command_line_plan(scenario: str) -> float:
@@ -45,26 +49,30 @@ def command_line_plan(scenario: str) -> float:
         return time.perf_counter() - t0
 
 
-def node_clicks(dashboard: Dashboard, page: Any, clicks: int) -> list[float]:
-    """Seconds per click on a node in view, to its frame and its details shown."""
+def node_clicks(dashboard: Dashboard, page: Any, clicks: int) -> tuple[list[float], list[float]]:
+    """Seconds per click on a node in view to its frame and its details on the
+    page, and to its bench sent (the bench follows the frame)."""
     plan = dashboard.plan
     assert plan is not None
     seen: list[str] = page.evaluate(NODES_IN_VIEW)
-    times = []
+    times, benches = [], []
     for k in range(clicks):
         node = seen[k % len(seen)]
         if node == dashboard.selected:
             node = seen[(k + 1) % len(seen)]
         box = page.locator(f'svg.tandem-tree [data-node="{node}"] rect.box').bounding_box()
         assert box is not None
+        action = str(plan.nodes[node].action or "goal")
         # The mouse, as a person's: no waiting for the page to settle before it.
         t0 = time.perf_counter()
         page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
         page.locator(f'svg.tandem-tree [data-node="{node}"] rect[stroke="#d0209c"]').wait_for()
-        # The Selected node tab (hidden behind the tree's) holds the node now.
-        wait_for(lambda: dashboard.node_panel.selected == node)  # noqa: B023 (waited here)
+        page.locator("strong").get_by_text(action, exact=True).first.wait_for()
         times.append(time.perf_counter() - t0)
-    return times
+        wait_for(lambda: dashboard.screen.bench_at == node)  # noqa: B023 (waited here)
+        benches.append(time.perf_counter() - t0)
+        time.sleep(GLANCE_S)
+    return times, benches
 
 
 def execution_starts(dashboard: Dashboard, page: Any, runs: int) -> list[float]:
@@ -94,10 +102,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     cli = [command_line_plan(BIG) for _ in range(args.runs)]
     in_page: list[float] = []
-    with dashboard_page(BIG) as (dashboard, page):
+    with dashboard_page(BIG, models=True) as (dashboard, page):
         for _ in range(args.runs):
             in_page.append(plan_in_page(dashboard, page))
-        clicks = node_clicks(dashboard, page, args.clicks)
+        clicks, benches = node_clicks(dashboard, page, args.clicks)
     with dashboard_page("default.toml") as (dashboard, page):
         plan_in_page(dashboard, page)
         dashboard.execution.speed.value = 0.5
@@ -107,9 +115,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         ("plan U10: page / command line", "≤ 1.3×", "11.4 s / 2.8 s = 4.1×",
          f"{median(in_page):.2f} s / {median(cli):.2f} s = {ratio:.2f}×",
          "yes" if ratio <= 1.3 else "no"),
-        (f"node click on U10 (median of {len(clicks)})", "≤ 0.3 s", "0.4-1.1 s (default plan)",
+        (f"node click on U10 (median of {len(clicks)})", "≤ 0.3 s", "0.63 s (with meshes)",
          f"{median(clicks):.3f} s (max {max(clicks):.3f})",
          "yes" if median(clicks) <= 0.3 else "no"),
+        ("  its bench sent", "", "with the frame",
+         f"{median(benches):.3f} s (max {max(benches):.3f})", ""),
         ("execution start to first step", "≤ 1 s", "4.9-13.3 s",
          f"{median(starts):.2f} s (max {max(starts):.2f})",
          "yes" if median(starts) <= 1.0 else "no"),
