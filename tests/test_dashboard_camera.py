@@ -244,3 +244,48 @@ def test_a_missing_camera_is_one_line_and_clicks_answer(page: Page, dashboard: D
     assert answered.source == "click"
     executor.abort()
     wait_for(lambda: executor.done, 30)
+
+
+def test_a_wait_on_the_camera_says_what_it_sees_and_for_how_long(
+    page: Page, dashboard: Dashboard
+) -> None:
+    if dashboard.camera_panel.live is None:
+        page.get_by_role("button", name="Start camera", exact=True).click()
+    wait_for(lambda: dashboard.execution.camera is not None, 30)
+    if dashboard.plan is None or dashboard.plan.partial:
+        plan_clicked(page, dashboard, 120)
+    execution = dashboard.execution
+    execution.speed.value = 0.0
+    page.get_by_role("tab", name="Execution").click()
+    page.get_by_role("button", name="Execute plan", exact=True).click()
+    wait_for(lambda: execution.running, 30)
+    executor = execution.executor
+    assert executor is not None and dashboard.plan is not None
+    plan = dashboard.plan
+    try:
+        while True:  # the questions before the first sensing node: answered by clicks
+            wait_for(lambda: execution.clicks is not None and execution.clicks.pending(), 60)
+            offer = execution.clicks.pending() if execution.clicks else None
+            assert offer is not None
+            if plan.nodes[offer.node_id].kind == "sensing":
+                break
+            execution.clicks.click(offer.options[0], offer.node_id)  # type: ignore[union-attr]
+            wait_for(lambda o=offer: execution.clicks.pending() is not o, 30)  # type: ignore[union-attr]
+        # Nobody has acted yet: the camera looks, and the page says what it sees.
+        line = page.get_by_text("the camera is looking: seen", exact=False).first
+        line.wait_for()
+        assert f"`{offer.node_id}`" in str(execution.waiting.content) or offer.node_id in (
+            line.inner_text())  # fmt: skip
+        assert "of 5 markers" in line.inner_text(), line.inner_text()
+        waited = page.get_by_text("waiting for an answer for 2 s", exact=False).first
+        waited.wait_for(timeout=20000)  # the seconds count up on the page
+        shot(page, "camera-wait")
+    finally:
+        # To the end by clicks (an abort while the camera waits for the simulated
+        # human is not this test's matter).
+        while not executor.done:
+            offer = execution.clicks.pending() if execution.clicks else None
+            if offer is not None:
+                execution.clicks.click(offer.options[0], offer.node_id)  # type: ignore[union-attr]
+            time.sleep(0.05)
+    wait_for(lambda: execution.waiting.content == "", 10)

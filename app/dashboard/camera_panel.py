@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,14 +32,16 @@ import viser
 from app.dashboard.frame_window import FrameWindows
 from app.dashboard.operator import Operator
 from app.dashboard.scenario_folders import RefusedName, find_recording
-from app.dashboard.stage import CameraChanged, Events, ScenarioChanged, Stage
+from app.dashboard.stage import CameraChanged, CameraSeen, Events, ScenarioChanged, Stage
 from app.responses.camera import HumanFactory, LiveAnswers, open_camera
 from app.sim.camera import StillSimulatedCamera
 from app.sim.human import SimulatedHuman
 from app.sources.camera_reading import belief_words
 from app.sources.live_camera import LiveCamera, LiveView
 from perception.annotate import annotate
+from perception.decode import Detection
 from perception.frames import SourceError
+from perception.markers import PartCode
 
 SOURCES = ("simulated", "webcam", "video file", "image folder")
 VIEW_WIDTH = 640  # px sent to the page: the frame's own width
@@ -201,11 +204,21 @@ class CameraPanel:
             f"`{pid}` {belief_words(p)} ({p.confidence:.2f})"
             for pid, p in world.parts.items()
         ) + ("" if world.stable else "\n\n*(settling)*")
+        self.events.publish(CameraSeen(*markers_seen(observation.detections, self.stage),
+                                       not world.stable))  # fmt: skip
         if live.ended is not None:
             self.status.content = f"Camera **{live.name}**: {live.ended}."
 
     def close(self) -> None:
         self.stop(None)
+
+
+def markers_seen(detections: Sequence[Detection], stage: Stage) -> tuple[int, int]:
+    """The parts whose codes a frame shows, and how many parts the bench has (each
+    carries its code)."""
+    seen = {d.code.part_id for d in detections if isinstance(d.code, PartCode)}
+    scenario = stage.current_scenario()
+    return len(seen), len(scenario.parts) if scenario is not None else 0
 
 
 def rgb_at_view_width(annotated: np.ndarray) -> np.ndarray:

@@ -22,6 +22,7 @@ from app.dashboard.operator import Operator, refuse
 from app.dashboard.stage import (
     CameraAnswers,
     CameraChanged,
+    CameraSeen,
     Events,
     ExecutionFinished,
     ExecutionStarted,
@@ -29,6 +30,7 @@ from app.dashboard.stage import (
     Stage,
 )
 from app.dashboard.tree_svg import Step, strip_svg
+from app.dashboard.wait_words import CameraNews, Waiting, wait_line
 from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, is_step
 from app.execution.repair import Repairer
 from app.execution.retargeting import retargeter_for
@@ -38,7 +40,7 @@ from app.execution.walker import Executor, Listener, Narrator
 from app.sessions.database import StoreError
 from app.sessions.store import SessionStore
 from app.sources.outcomes import ClickSource, FallbackSource, Offer
-from planner.plan.model import Motion, Plan
+from planner.plan.model import Motion, Plan, PlanNode
 from planner.vocabulary import SenseLengthOf, SenseShapeOf
 
 # Who answers and who speaks in an execution of a plan, given the clicks to fall
@@ -58,6 +60,7 @@ class RobotChoice(Protocol):
 FRAMES_PER_MOTION = 20  # arm poses shown per motion (the path is subsampled)
 LOG_LINES = 12  # the page keeps these; the session store keeps every event
 IDLE = "**Ready.** Plan, then press **Execute plan**."
+TICK_S = 0.5  # how often a waiting question's line is said again
 
 
 class ExecutionPanel:
@@ -90,6 +93,10 @@ class ExecutionPanel:
         self._lock = threading.Lock()  # the answer buttons: executor and GUI threads
         self._steps: list[Step] = []
         self.status = gui.add_markdown(IDLE)
+        self.waiting = gui.add_markdown("")  # a question waiting: how long, who does what
+        self._seen: tuple[CameraSeen, float] | None = None  # the camera's last view, when
+        self._voice = False  # the voice answers this execution's questions
+        self._heard: str | None = None  # the voice's last turn in the current wait
         self.start_button = gui.add_button("Execute plan", disabled=True, color="green")
         self.start_button.on_click(lambda e: self.start(e.client_id, e.client))
         only = operator.only
@@ -110,6 +117,7 @@ class ExecutionPanel:
         self.speed: Any = gui.add_slider("Seconds per step", 0.0, 3.0, 0.1, 0.5)
         events.subscribe(PlanChanged, self._plan_changed)
         events.subscribe(CameraChanged, self._camera_changed)
+        events.subscribe(CameraSeen, lambda m: setattr(self, "_seen", (m, time.monotonic())))
 
     def _camera_changed(self, message: CameraChanged) -> None:
         self.camera = message.camera  # taken by the next execution
@@ -168,6 +176,7 @@ class ExecutionPanel:
         if self.responses is not None:
             # The voice answers the questions (falling back to the clicks) and speaks.
             source, narrator = self.responses(plan, clicks)
+        self._voice = source is not clicks
         listeners: list[Listener] = []
         note = "dashboard"
         if self.camera is not None:
@@ -214,6 +223,8 @@ class ExecutionPanel:
         self.executor.start()
         self._finisher = threading.Thread(target=self._finish, args=(self.executor,), daemon=True)
         self._finisher.start()
+        threading.Thread(target=self._tick, args=(self.executor,), name="execution-waits",
+                         daemon=True).start()  # fmt: skip
 
     def _finish(self, executor: Executor) -> None:
         executor.wait()
@@ -271,6 +282,7 @@ class ExecutionPanel:
         # Runs in the executor's thread, once the step is done (a motion played).
         if not is_step(event):  # a turn of the dialogue: the log, and a voice pause
             self._add_line(sentence(event))
+            self._heard = sentence(event)
             if event.kind in ("paused", "resumed"):
                 paused = event.kind == "paused"
                 self.pause_button.label = "Resume" if paused else "Pause"
@@ -288,6 +300,36 @@ class ExecutionPanel:
         robot_moved = event.evidence is not None and event.evidence.robot is not None
         if event.motion and not robot_moved:  # the drawn arm has played its motion
             self.stage.show_world(event.node)
+
+    def _tick(self, executor: Executor) -> None:
+        """While `executor` runs: a node with outcomes that waits for its answer says
+        so, with how long and what the camera and the voice are doing."""
+        node_id, since = None, time.monotonic()
+        while not executor.done:
+            current = executor.current
+            if current != node_id:
+                node_id, since, self._heard = current, time.monotonic(), None
+            # Answered: its step is kept (a turn of the dialogue at it is not).
+            last = next((e for e in reversed(executor.events[-8:]) if is_step(e)), None)
+            answered = last is not None and last.node == current
+            node = executor.nodes.get(current) if current is not None else None
+            if current is None or node is None or not node.outcomes or answered or executor.paused:
+                self.waiting.content = ""
+            else:
+                self.waiting.content = wait_line(self._waiting(current, node, since))
+            time.sleep(TICK_S)
+        self.waiting.content = ""
+
+    def _waiting(self, node_id: str, node: PlanNode, since: float) -> Waiting:
+        now = time.monotonic()
+        camera_on = self.camera is not None and node.kind == "sensing"
+        news = None
+        if camera_on and self._seen is not None:
+            seen, at = self._seen
+            news = CameraNews(seen.seen, seen.of, seen.settling, now - at)
+        voice = self._voice and node.kind == "communication"
+        return Waiting(node_id, str(node.action), now - since, news, camera_on, voice,
+                       self._heard if voice else None)  # fmt: skip
 
     def _kinds(self) -> list[str]:
         plan = self.stage.current_plan()

@@ -168,6 +168,17 @@ class CameraChanged:
     camera: CameraAnswers | None
 
 
+@dataclass(frozen=True)
+class CameraSeen:
+    """The running camera's latest view, as its panel shows it (a few times a
+    second): part codes `seen` of the `of` the scenario marks, and whether what
+    it believes still `settling`."""
+
+    seen: int
+    of: int
+    settling: bool
+
+
 Message = (
     PlanChanged
     | ScenarioChanged
@@ -176,6 +187,7 @@ Message = (
     | ExecutionStarted
     | ExecutionFinished
     | CameraChanged
+    | CameraSeen
 )
 M = TypeVar(
     "M",
@@ -186,6 +198,7 @@ M = TypeVar(
     ExecutionStarted,
     ExecutionFinished,
     CameraChanged,
+    CameraSeen,
 )
 
 
