@@ -165,3 +165,28 @@ def test_restore_the_layout_brings_a_dragged_panel_back(
     finally:
         page.close()
         other.close()
+
+
+# The button's box and the visible box of the panel that scrolls it (or the page).
+IN_ITS_PANEL = """e => { const r = e.getBoundingClientRect(); let p = e.parentElement;
+  while (p) { const s = getComputedStyle(p);
+    if (/(auto|scroll)/.test(s.overflowY) && p.scrollHeight > p.clientHeight) {
+      const q = p.getBoundingClientRect();
+      return [r.top, r.bottom, q.top, q.bottom, p.scrollTop]; }
+    p = p.parentElement; }
+  return [r.top, r.bottom, 0, innerHeight, 0]; }"""
+
+
+@pytest.mark.parametrize("size", SIZES, ids=["1600x1000", "1280x800"])
+def test_plan_shows_on_a_new_page_without_scrolling(
+    browser: Browser, dashboard: Dashboard, size: tuple[int, int]
+) -> None:
+    page = sized_page(browser, dashboard, size)
+    try:
+        layout_of(page)  # the panels stand still
+        top, bottom, shown_top, shown_bottom, scrolled = page.get_by_role(
+            "button", name="Plan", exact=True).evaluate(IN_ITS_PANEL)  # fmt: skip
+        assert scrolled == 0
+        assert shown_top <= top and bottom <= min(shown_bottom, size[1]), (top, shown_bottom)
+    finally:
+        page.close()

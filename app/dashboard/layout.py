@@ -1,7 +1,7 @@
 """Where the dashboard's panels stand: four docked panels around the bench.
 
-Left, the main panel (the guide, then what a user does in order: scenario,
-plan, view, speech) above the camera panel; right, the plan tree (the tree,
+Left, the main panel (the guide, then plan, scenario, view, speech: the Plan
+button where a new page shows it) above the camera panel; right, the plan tree (the tree,
 and the selected node's details right under it, in one tab) above the
 execution panel (tabs: the execution's controls, the simulated human, the
 timeline and the log; the review of stored sessions). The bench's 3D view
@@ -32,11 +32,10 @@ RIGHT_PX = 500.0
 BENCH_LEFT_PX = 360.0  # the bench's width beside a wide tree
 
 GUIDE = (
-    "**Tandem** plans what a robot and a human do to build a table. "
-    "**1. Plan** the scenario (below), **2. Execute** the plan (right), "
-    "**3. Answer** for the human with the buttons there, or let the camera and "
-    "the voice answer. The tree (right) shows the plan; click a node to see the "
-    "bench as that node leaves it."
+    "**Tandem** plans what a robot and a human do to build a table. **1. Plan** "
+    "(below; pick or edit the scenario under it), **2. Execute** (right), **3. Answer** "
+    "for the human there, or let the camera and the voice answer. Click a node of "
+    "the tree to see the bench as it leaves it."
 )
 
 

@@ -111,6 +111,15 @@ class PlanPanel:
         self._live = LiveRedraw()
         self._status_tick = LiveRedraw(STATUS_EVERY_S)
         with gui.add_folder("Plan"):
+            # The button first: a new page shows it without scrolling, at 1280×800 too.
+            self.plan_button = gui.add_button("Plan", color="green")
+            self.plan_button.on_click(lambda _: self.start_planning())
+            self.cancel_button = gui.add_button("Cancel", disabled=True)
+            self.cancel_button.on_click(lambda _: self.job.cancel() if self.job else None)
+            self.progress = gui.add_progress_bar(0.0)
+            self.status = gui.add_markdown("Not planned yet.")
+            with gui.add_folder("Statistics", expand_by_default=False):
+                self.stats = gui.add_html("")
             # Where branches are solved: this machine's processes, or Ray actors
             # (`tandem plan --cluster`); the address is kept while "this machine".
             self.solve_on = gui.add_dropdown(
@@ -128,14 +137,6 @@ class PlanPanel:
             self.solve_on.on_update(
                 lambda _: setattr(self.ray_address, "disabled", self.solve_on.value != RAY)
             )
-            self.plan_button = gui.add_button("Plan", color="green")
-            self.plan_button.on_click(lambda _: self.start_planning())
-            self.cancel_button = gui.add_button("Cancel", disabled=True)
-            self.cancel_button.on_click(lambda _: self.job.cancel() if self.job else None)
-            self.progress = gui.add_progress_bar(0.0)
-            self.status = gui.add_markdown("Not planned yet.")
-            with gui.add_folder("Statistics", expand_by_default=False):
-                self.stats = gui.add_html("")
         events.subscribe(ScenarioChanged, self._scenario_changed)
         events.subscribe(PlanChanged, self._plan_changed)
         events.subscribe(ExecutionStarted, lambda _: self._lock(True))

@@ -104,10 +104,12 @@ class Dashboard:
             self.node_panel = NodePanel(gui, screen, events)
         screen.tree.on_width = panels.widen_tree
         gui.add_markdown(GUIDE)
-        self.scenario_panel = ScenarioPanel(gui, screen, events, self.folders, server.atomic)
+        # Plan above the scenario's fields: its status names the scenario loaded, and
+        # its button shows on a new page without scrolling (1280×800 included).
         self.plan_panel = PlanPanel(
             gui, screen, events, PlanSettings(s.workers, s.cache_dir, s.cluster)
         )
+        self.scenario_panel = ScenarioPanel(gui, screen, events, self.folders, server.atomic)
         self.view_panel = ViewPanel(gui, screen, events, lambda: server.get_clients().values())
         panels.add_restore_button(gui)  # under View: each page's own layout
         try:
