@@ -19,7 +19,7 @@ import viser
 from app.dashboard.bench_scene import BenchScene
 from app.dashboard.camera_panel import CameraPanel
 from app.dashboard.execution_panel import ExecutionPanel
-from app.dashboard.layout import BENCH_LEFT_PX, GUIDE, Layout
+from app.dashboard.layout import GUIDE, Layout
 from app.dashboard.mesh_detail import DEFAULT_DETAIL
 from app.dashboard.node_panel import NodePanel
 from app.dashboard.operator import Operator
@@ -102,6 +102,7 @@ class Dashboard:
         with panels.tree_tab:  # the tree, and the selected node right under it
             self.screen = screen = Screen(server, events)
             self.node_panel = NodePanel(gui, screen, events)
+        screen.tree.on_width = panels.widen_tree
         gui.add_markdown(GUIDE)
         # Plan above the scenario's fields: its status names the scenario loaded, and
         # its button shows on a new page without scrolling (1280×800 included).
@@ -111,7 +112,6 @@ class Dashboard:
         self.scenario_panel = ScenarioPanel(gui, screen, events, self.folders, server.atomic)
         self.view_panel = ViewPanel(gui, screen, events, lambda: server.get_clients().values())
         panels.add_restore_button(gui)  # under View: each page's own layout
-        screen.tree.on_width = self._tree_width
         try:
             self.store = SessionStore(data)
         except StoreError:
@@ -141,14 +141,6 @@ class Dashboard:
         server.on_client_connect(self.camera_panel.windows.greet)  # its own Enlarge box
         server.on_client_disconnect(self.camera_panel.windows.leave)
         self.open_scenario(scenario_path)
-
-    def _tree_width(self, client: viser.ClientHandle, wide: bool) -> None:
-        """The tree beside the bench on that page (Wide) or not; the bench's camera
-        steps back so the narrower bench is still seen whole."""
-        bench = float(client.camera.image_width)
-        self.layout.widen_tree(client, wide)
-        back = max(1.0, bench / (1.3 * BENCH_LEFT_PX)) if wide else 1.0
-        self.view_panel.aim("Bench", client, back=back)
 
     # -- what the panels and the stage hold -------------------------------------------
 

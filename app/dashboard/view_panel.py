@@ -45,16 +45,11 @@ class ViewPanel:
         """A page that connects looks at the bench."""
         self.aim("Bench", client)
 
-    def aim(
-        self, view: str, client: viser.ClientHandle | None = None, *, back: float = 1.0
-    ) -> None:
-        """Turn `client`'s camera (every page's: None) to `view`, `back` times as far
-        from what it looks at (a narrower bench shows all of it from farther)."""
+    def aim(self, view: str, client: viser.ClientHandle | None = None) -> None:
+        """Turn `client`'s camera (every page's: None) to `view`."""
         if view not in CAMERAS:
             return
-        (px, py, pz), target = CAMERAS[view]
-        tx, ty, tz = target
-        position = (tx + (px - tx) * back, ty + (py - ty) * back, tz + (pz - tz) * back)
+        position, target = CAMERAS[view]
         for c in [client] if client is not None else list(self.clients()):
             with c.atomic():
                 c.camera.position = position
