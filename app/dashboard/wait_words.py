@@ -57,8 +57,10 @@ def wait_line(waiting: Waiting) -> str:
     if waiting.voice:
         heard = f"; heard {waiting.heard}" if waiting.heard else ""
         doing.append(f"the voice is listening{heard}")
-    doing.append("a click answers for the human")
+    doing.append("a click answers for the human" if len(doing) == 0
+                 else "or a click answers for the human")  # fmt: skip
+    said = "; ".join(doing)
     return (
-        f"⏳ `{waiting.node_id}` **{waiting.action}**: waiting for an answer for "
-        f"{waiting.waited_s:.0f} s. " + "; ".join(doing) + "."
+        f"`{waiting.node_id}` **{waiting.action}**: waiting for an answer for "
+        f"{waiting.waited_s:.0f} s. {said[0].upper()}{said[1:]}."
     )
