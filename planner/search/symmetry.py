@@ -51,6 +51,11 @@ class Renaming:
     symmetry: Symmetry
     to_canonical: dict[tuple[int, int], int]
     to_actual: dict[tuple[int, int], int]
+    # The canonical state this renaming was made for, and that state's actual one:
+    # the states of a plan solved for it differ from it in a few fluents, so only
+    # those are renamed (`actual_state`).
+    canonical_start: State = frozenset()
+    actual_start: State = frozenset()
     # Fluents renamed to the actual names so far: the states of one plan share most
     # of their fluents (U14: 494,000 renames of far fewer texts, 1.5 s of planning).
     _actual: dict[str, str] = field(default_factory=dict, compare=False, repr=False)
@@ -62,14 +67,26 @@ class Renaming:
         return self.symmetry.rename(text, self.to_actual)
 
     def actual_state(self, state: State) -> State:
+        """`state` (canonical names) in the actual names. A renaming is one-to-one on
+        fluents, so a state near the canonical start is the actual start with the
+        fluents it lacks or adds renamed (U30: the search's own CPU 7.8 -> 5.8 s, its
+        states of up to 65 fluents renamed one at a time before); the states share
+        the actual start's strings."""
+        start = self.canonical_start
+        gone, added = start - state, state - start
+        if not start or len(gone) + len(added) >= len(state):
+            return frozenset(self._renamed(state))
+        return (self.actual_start - frozenset(self._renamed(gone))) | self._renamed(added)
+
+    def _renamed(self, fluents: Iterable[str]) -> set[str]:
         done, rename, moves = self._actual, self.symmetry.rename, self.to_actual
-        out = []
-        for fluent in state:
+        out = set()
+        for fluent in fluents:
             text = done.get(fluent)
             if text is None:
                 text = done[fluent] = rename(fluent, moves)
-            out.append(text)
-        return frozenset(out)
+            out.add(text)
+        return out
 
 
 # What a fluent says about the members of a class: the member it names and its
@@ -176,7 +193,8 @@ class Symmetry:
             for generic in generics
         ]
         to_actual = {(c, slot): m for (c, m), slot in to_canonical.items()}
-        return frozenset(canon), Renaming(self, to_canonical, to_actual)
+        canonical = frozenset(canon)
+        return canonical, Renaming(self, to_canonical, to_actual, canonical, state)
 
     def rename(self, text: str, moves: dict[tuple[int, int], int]) -> str:
         """`text` with the parts of each member in `moves` named as the member it moves to."""
