@@ -45,7 +45,7 @@ run: $(STAMP)
 	$(BIN)/tandem dashboard --scenario static/scenarios/default.toml
 
 test: $(STAMP) system
-	$(BIN)/pytest -q -n 2 --dist loadgroup --durations=25
+	$(BIN)/pytest -q -n 2 --dist loadfile --durations=25
 
 bench: $(STAMP) system
 	$(BIN)/python -m app.benchmark.startup

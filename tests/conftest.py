@@ -3,11 +3,18 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
 import types
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import pytest
+
+if TYPE_CHECKING:
+    from playwright.sync_api import Browser
 
 _made: list[str] = []
 
@@ -26,21 +33,33 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 
 
 # What a module's tests need, read off what the module uses: a test that drives
-# chromium is `browser`, one on a roscore `ros`, one on Ray `cluster`. Marked here
-# so a new test file is marked without anyone remembering to.
+# chromium is `browser`, one on a roscore `ros`, one on Ray `cluster`, one in a room
+# or on a microphone that runs in real time `live_audio`, a study day's executions
+# `soak`. Marked here so a new test file is marked without anyone remembering to.
 _NEEDS: dict[str, tuple[str, ...]] = {
     "browser": ("playwright",),
     "ros": ("robot_graph", "tests.robot_graph"),
     "cluster": ("ray",),
+    "live_audio": (
+        "app.responses.voice_room", "app.responses.voice_mic", "speech.microphone",
+        "tests.audio_device", "speech.sources.SimulatedRoom",
+    ),
+    "soak": ("app.benchmark.memory",),
 }
 
 
 def _uses(module: types.ModuleType, prefixes: tuple[str, ...]) -> bool:
+    """Whether `module` holds a module, or a class or function of a module, named in
+    `prefixes` (a top-level package, a module, or a module's class)."""
     for value in vars(module).values():
-        name = value.__name__ if isinstance(value, types.ModuleType) else getattr(
-            value, "__module__", None
-        )
-        if isinstance(name, str) and (name in prefixes or name.split(".")[0] in prefixes):
+        if isinstance(value, types.ModuleType):
+            names = (value.__name__,)
+        else:
+            home = getattr(value, "__module__", None)
+            if not isinstance(home, str):
+                continue
+            names = (home, f"{home}.{getattr(value, '__qualname__', '')}")
+        if any(n in prefixes or n.split(".")[0] in prefixes for n in names):
             return True
     return False
 
@@ -55,8 +74,51 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             seen[module.__name__] = {m for m, p in _NEEDS.items() if _uses(module, p)}
         for marker in seen[module.__name__]:
             item.add_marker(marker)
-        # Under pytest-xdist (--dist loadgroup) a file's tests share one worker and
-        # so its module fixtures (a server, a browser); Ray's tests share one worker
-        # so two local clusters never meet through `address="auto"`.
-        group = "cluster" if "cluster" in seen[module.__name__] else module.__name__
-        item.add_marker(pytest.mark.xdist_group(group))
+
+
+# Under pytest-xdist a file's tests run on one worker, in their order, so its module
+# fixtures (a server, a page) are made once and its tests may build on each other;
+# every file on Ray runs on one worker, so two local clusters never meet through
+# `address="auto"`. (xdist's own `xdist_group` marks are lost from the test ids under
+# pytest 9.2, which keeps its ids apart from the `_nodeid` xdist rewrites; a file's
+# tests were then split over both workers, each making its own server.)
+_RAY = re.compile(r"""^\w+ = pytest\.importorskip\("ray"|^import ray|^from ray""", re.M)
+
+
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    from xdist.scheduler import LoadFileScheduling
+
+    root, scopes = config.rootpath, {}
+
+    class FileScheduling(LoadFileScheduling):  # type: ignore[misc]
+        def _split_scope(self, nodeid: str) -> str:
+            path = nodeid.split("::", 1)[0]
+            if path not in scopes:
+                source = root / path
+                on_ray = source.suffix == ".py" and _RAY.search(source.read_text()) is not None
+                scopes[path] = "cluster" if on_ray else path
+            return scopes[path]
+
+    return FileScheduling(config, log)
+
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[Browser]:
+    """One Debian chromium per test process, shared by every browser test: a page is
+    each test's own (`Browser.new_page` makes a fresh context), the browser is not.
+    One playwright driver per thread is all the sync API allows, so no test starts
+    its own. Pages may play audio without a click (the speech panel's lines)."""
+    if not Path(CHROMIUM).exists():
+        pytest.fail("chromium is missing: `make test` installs it (apt-get install chromium)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as driver:
+        launched = driver.chromium.launch(
+            executable_path=CHROMIUM,
+            args=["--no-sandbox", "--autoplay-policy=no-user-gesture-required"],
+        )
+        yield launched
+        launched.close()

@@ -6,7 +6,6 @@ Screenshots of the key views go to tests/artifacts/ for people to look at.
 from __future__ import annotations
 
 import io
-import shutil
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -17,7 +16,7 @@ import pytest
 from PIL import Image
 
 pytest.importorskip("playwright.sync_api")
-from playwright.sync_api import Browser, Page, expect, sync_playwright  # noqa: E402
+from playwright.sync_api import Browser, Page, expect  # noqa: E402
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from app.dashboard.tree_svg import CURRENT, PATH  # noqa: E402
@@ -25,7 +24,6 @@ from app.execution.events import is_step  # noqa: E402
 from app.execution.walker import Executor  # noqa: E402
 from tests.plan_fixtures import free_port  # noqa: E402
 
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
 
 
@@ -35,16 +33,6 @@ def wait_for(condition: Callable[[], object], timeout: float = 60.0) -> None:
         if time.monotonic() > end:
             raise AssertionError("condition not met in time")
         time.sleep(0.05)
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    if not Path(CHROMIUM).exists():
-        pytest.fail("chromium is missing: `make test` installs it (apt-get install chromium)")
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
-        yield b
-        b.close()
 
 
 @pytest.fixture(scope="module")
@@ -325,7 +313,7 @@ def test_click_through_an_execution_then_review_it(page: Page, dashboard: Dashbo
     # The session is in the review list and replays the same path.
     page.get_by_role("tab", name="Review").click()
     page.get_by_role("button", name="Refresh list", exact=True).click()
-    label = next(k for k, v in dashboard.review._ids.items() if v == session_id)
+    label = dashboard.review.label_of(session_id)
     page.get_by_role("button", name="Open session", exact=True).click()
     wait_for(lambda: dashboard.review.opened == session_id)
     assert dashboard.review.pick.value == label

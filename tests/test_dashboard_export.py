@@ -31,15 +31,12 @@ from app.execution.timing import segment_seconds  # noqa: E402
 from app.sessions.export import CSV_COLUMNS  # noqa: E402
 from app.sessions.mcap_export import SessionRun  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
-    browser,
     opened,
     run_by_clicks,
     served,
     shot,
 )
 from tests.test_dashboard_review import open_session  # noqa: E402
-
-__all__ = ["browser"]  # the fixture, shared with the dashboard's other browser tests
 
 SECONDS_PER_STEP = 0.5
 # How far a motion's first and last joint states may lie from its stored start and
@@ -126,7 +123,7 @@ def check_csv_and_json(events: list[ExecutionEvent], csv_path: Path, json_path: 
 
 
 def test_a_clicked_session_downloads_whole_and_true_to_time(
-    browser: Browser,  # noqa: F811
+    browser: Browser,
     dashboard: Dashboard,
     tmp_path: Path,
 ) -> None:

@@ -15,7 +15,7 @@ pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page  # noqa: E402
 
 from app.dashboard.server import Dashboard  # noqa: E402
-from tests.test_dashboard import browser, opened, served, shot, wait_for  # noqa: E402, F401
+from tests.test_dashboard import opened, served, shot, wait_for  # noqa: E402, F401
 
 Box = tuple[int, int, int, int]  # left, top, right, bottom, in pixels
 
@@ -66,7 +66,7 @@ def _settled(page: Page) -> np.ndarray:
 
 @pytest.mark.parametrize("size", [(1600, 1000), (1280, 800)])
 def test_the_human_stands_with_its_name_above_its_head(
-    browser: Browser, dashboard: Dashboard, size: tuple[int, int]  # noqa: F811
+    browser: Browser, dashboard: Dashboard, size: tuple[int, int]
 ) -> None:
     with opened(browser, dashboard) as page:
         page.set_viewport_size({"width": size[0], "height": size[1]})

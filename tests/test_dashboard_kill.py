@@ -12,16 +12,18 @@ from pathlib import Path
 import pytest
 
 pytest.importorskip("playwright.sync_api")
-from playwright.sync_api import sync_playwright  # noqa: E402
+from playwright.sync_api import Browser  # noqa: E402
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from app.sessions.store import SessionStore  # noqa: E402
-from tests.test_dashboard import CHROMIUM, free_port, wait_for  # noqa: E402
+from tests.test_dashboard import free_port, wait_for  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def test_killed_server_keeps_events_and_the_session_is_reviewed(tmp_path: Path) -> None:
+def test_killed_server_keeps_events_and_the_session_is_reviewed(
+    browser: Browser, tmp_path: Path
+) -> None:
     data = tmp_path / "data"
     port = free_port()
     server = subprocess.Popen(
@@ -35,9 +37,8 @@ def test_killed_server_keeps_events_and_the_session_is_reviewed(tmp_path: Path) 
         while not any("Tandem dashboard on http://127.0.0.1" in line for line in lines):
             lines.append(server.stdout.readline())
             assert lines[-1] or server.poll() is None, "".join(lines)
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
-            page = browser.new_page(viewport={"width": 1400, "height": 900})
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        try:
             page.goto(f"http://127.0.0.1:{port}")
             page.get_by_role("button", name="Plan", exact=True).click()
             page.get_by_role("button", name="Execute plan", exact=True).wait_for()
@@ -53,7 +54,8 @@ def test_killed_server_keeps_events_and_the_session_is_reviewed(tmp_path: Path) 
             assert len(before) >= 3
             os.kill(server.pid, signal.SIGKILL)
             server.wait(timeout=10)
-            browser.close()
+        finally:
+            page.close()
     finally:
         if server.poll() is None:
             server.kill()
@@ -69,9 +71,10 @@ def test_killed_server_keeps_events_and_the_session_is_reviewed(tmp_path: Path) 
         DashboardSettings(data_dir=str(data), load_models=False),
     )
     try:
-        labels = list(dashboard.review._ids)
-        assert len(labels) == 1 and "interrupted" in labels[0]
-        dashboard.review.open(labels[0])
+        label = dashboard.review.label_of(session.id)
+        assert label is not None and "interrupted" in label
+        assert dashboard.review.pick.options == (label,)  # the one session, listed
+        dashboard.review.open(label)
         dashboard.review.show_step(len(before) - 1)
         assert dashboard.selected == before[-1].node
     finally:

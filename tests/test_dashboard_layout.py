@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 
 pytest.importorskip("playwright.sync_api")
-from playwright.sync_api import Browser, Page, sync_playwright  # noqa: E402
+from playwright.sync_api import Browser, Page  # noqa: E402
 
 from app.dashboard.layout import LEFT_PX, RIGHT_PX  # noqa: E402
 from app.dashboard.server import Dashboard  # noqa: E402
-from tests.test_dashboard import CHROMIUM, open_page, served, shot, wait_for  # noqa: E402
+from tests.test_dashboard import open_page, served, shot, wait_for  # noqa: E402
 
 SIZES = ((1600, 1000), (1280, 800))
 # Each docked or floating panel: its tabs, and its box on the page.
@@ -60,14 +60,6 @@ def enlarge_box(page: Page) -> object:
     # not linked to their inputs.
     label = page.get_by_text("Enlarge", exact=False).first
     return label.locator("xpath=ancestor::*[.//input][1]").locator("input").first
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
-        yield b
-        b.close()
 
 
 @pytest.fixture(scope="module")

@@ -25,7 +25,7 @@ from playwright.sync_api import Browser, Page, expect  # noqa: E402
 from app.execution.walker import INTERRUPTED  # noqa: E402
 from app.sessions.store import SessionStore  # noqa: E402
 from tests.plan_fixtures import ROOT, tandem_command  # noqa: E402
-from tests.test_dashboard import browser, free_port, wait_for  # noqa: E402, F401
+from tests.test_dashboard import free_port, wait_for  # noqa: E402, F401
 
 REFUSED = "Only the operator can do that"
 
@@ -77,7 +77,7 @@ def log_text(page: Page) -> str:
     return page.locator("body").inner_text()
 
 
-def test_one_operator_many_observers_then_sigterm(browser: Browser, running: Running) -> None:  # noqa: F811
+def test_one_operator_many_observers_then_sigterm(browser: Browser, running: Running) -> None:
     operator = open_page(browser, running.url)
     observer = open_page(browser, running.url)
     # Chromium draws a page in the background only now and then (the observer's

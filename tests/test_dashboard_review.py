@@ -33,7 +33,6 @@ from playwright.sync_api import Browser, Page  # noqa: E402
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
-    browser,  # noqa: F401  (the module's fixture)
     choose,
     opened,
     served,
@@ -133,7 +132,7 @@ def dashboard(data: Path) -> Iterator[Dashboard]:
 
 
 @pytest.fixture(scope="module")
-def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
     with opened(browser, dashboard) as page:
         page.get_by_role("tab", name="Review").click()
         yield page
@@ -142,7 +141,7 @@ def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F81
 def open_session(page: Page, dashboard: Dashboard, session_id: int) -> None:
     review = dashboard.review
     page.get_by_role("button", name="Refresh list", exact=True).click()
-    label = next(k for k, v in review._ids.items() if v == session_id)
+    label = review.label_of(session_id)
     choose(page, "Session", label)
     wait_for(lambda: review.pick.value == label, 20)
     page.get_by_role("button", name="Open session", exact=True).click()
@@ -195,7 +194,7 @@ def test_two_sessions_compared_diverge_at_the_first_differing_step(
     page: Page, dashboard: Dashboard
 ) -> None:
     open_session(page, dashboard, 1)
-    label = next(k for k, v in dashboard.review.compare._ids.items() if v == 2)
+    label = dashboard.review.compare.label_of(2)
     choose(page, "Compare with", label)
     words = page.get_by_text("Diverged at step", exact=False).first
     words.wait_for()

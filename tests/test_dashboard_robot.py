@@ -26,7 +26,6 @@ from tests.robot_graph import (  # noqa: E402
     sim_baxter,
 )
 from tests.test_dashboard import (  # noqa: E402
-    browser,  # noqa: F401  (the module's fixture)
     choose,
     execute_clicked,
     field,
@@ -49,7 +48,7 @@ def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
 
 
 @pytest.fixture(scope="module")
-def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
     with opened(browser, dashboard) as page:
         yield page
 

@@ -3,6 +3,7 @@ done now, waits say what they wait for (real chromium, through the page)."""
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
 
 import pytest
@@ -11,10 +12,13 @@ pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, expect  # noqa: E402
 
 from app.dashboard.server import Dashboard  # noqa: E402
+from app.execution.events import OutcomeSource  # noqa: E402
+from app.execution.walker import Narrator  # noqa: E402
+from app.sources.outcomes import ClickSource  # noqa: E402
+from planner.plan.model import Plan  # noqa: E402
 from planner.resources import scenario_dir  # noqa: E402
 from planner.scenario.loading import load_scenario  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
-    browser,  # noqa: F401  (the module's fixture)
     choose,
     field,
     opened,
@@ -35,7 +39,7 @@ def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
 
 
 @pytest.fixture(scope="module")
-def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
     with opened(browser, dashboard) as page:
         yield page
 
@@ -128,17 +132,36 @@ def test_the_page_says_preparing_before_the_first_step(page: Page, dashboard: Da
     if not plan_shown(dashboard)():
         plan_clicked(page, dashboard, 120)
     execution = dashboard.execution
-    execution.start()  # as the button does: the line is set before preparing starts
-    assert str(execution.status.content).startswith("**Preparing the execution")
-    wait_for(lambda: execution.running, 30)
-    page.get_by_text("Running", exact=False).first.wait_for()
-    execution.executor.abort() if execution.executor else None
-    wait_for(lambda: not execution.running)
+    # Preparing is held open (as loading a voice holds it) until the line is seen: on a
+    # quick machine it is otherwise over before anyone could look.
+    held = threading.Event()
+    answers = execution.responses
+
+    def slow_voice(plan: Plan, clicks: ClickSource) -> tuple[OutcomeSource, Narrator | None]:
+        held.wait(30)
+        return clicks, None
+
+    execution.responses = slow_voice
+    try:
+        execution.start()  # as the button does: the line is set before preparing starts
+        assert str(execution.status.content).startswith("**Preparing the execution")
+        page.get_by_text("Preparing the execution", exact=False).first.wait_for()
+        held.set()
+        wait_for(lambda: execution.running, 30)
+        page.get_by_text("Running", exact=False).first.wait_for()
+    finally:
+        held.set()
+        execution.responses = answers
+        wait_for(lambda: not execution.preparing, 30)
+        if execution.executor is not None:
+            execution.executor.abort()
+        wait_for(lambda: not execution.running)
 
 
 def _parts_open(page: Page) -> None:
     """Opens the Parts folder (closed at first) unless it is open."""
-    if page.get_by_text("leg2 region", exact=True).count() == 0:
+    # A loaded scenario's fields are made anew, in a closed folder.
+    if not page.get_by_text("leg2 region", exact=True).first.is_visible():
         page.get_by_text("Parts", exact=True).first.click()
     page.get_by_text("leg2 region", exact=True).wait_for()
 

@@ -22,9 +22,7 @@ from app.execution.events import HUMAN, ExecutionEvent, is_step  # noqa: E402
 from app.execution.timing import human_activity, waits_for_human  # noqa: E402
 from app.sessions.metrics import session_metrics  # noqa: E402
 from planner.plan.model import Motion, Plan  # noqa: E402
-from tests.test_dashboard import browser, opened, run_by_clicks, served  # noqa: E402
-
-__all__ = ["browser"]  # the fixture, shared with the dashboard's other browser tests
+from tests.test_dashboard import opened, run_by_clicks, served  # noqa: E402
 
 SECONDS_PER_STEP = 0.5
 

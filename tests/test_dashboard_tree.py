@@ -13,7 +13,6 @@ from playwright.sync_api import Browser, Page  # noqa: E402
 from app.dashboard.layout import BENCH_LEFT_PX  # noqa: E402
 from app.dashboard.server import Dashboard  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
-    browser,  # noqa: F401  (the module's fixture)
     opened,
     plan_clicked,
     served,
@@ -33,7 +32,7 @@ def dashboard(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Dashboard]:
 
 
 @pytest.fixture(scope="module")
-def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:  # noqa: F811
+def page(browser: Browser, dashboard: Dashboard) -> Iterator[Page]:
     with opened(browser, dashboard) as page:
         yield page
 

@@ -28,7 +28,6 @@ from playwright.sync_api import Browser, Locator, Page  # noqa: E402
 
 from app.dashboard.server import Dashboard  # noqa: E402
 from tests.test_dashboard import (  # noqa: E402
-    browser,
     choose,
     opened,
     run_by_clicks,
@@ -36,8 +35,6 @@ from tests.test_dashboard import (  # noqa: E402
     shot,
     wait_for,
 )
-
-__all__ = ["browser"]  # the fixture, shared with the dashboard's other browser tests
 
 # -- the pictures' parts, without a page ----------------------------------------------
 
@@ -124,8 +121,8 @@ def open_session(page: Page, dashboard: Dashboard, session_id: int) -> None:
     review = dashboard.review
     page.get_by_role("tab", name="Review").click()
     page.get_by_role("button", name="Refresh list", exact=True).click()
-    wait_for(lambda: session_id in review._ids.values(), 20)
-    label = next(k for k, v in review._ids.items() if v == session_id)
+    wait_for(lambda: review.label_of(session_id) is not None, 20)
+    label = review.label_of(session_id)
     choose(page, "Session", label)
     wait_for(lambda: review.pick.value == label, 20)
     review.opened = None  # it may be open already, at another step
@@ -259,7 +256,7 @@ def test_compared_sessions_each_have_their_scale_and_part_only_when_paths_differ
     with opened(browser, dashboard) as page:
         # Two runs of one seed took the same path: nothing parted, nothing dashed.
         open_session(page, dashboard, 1)
-        choose(page, "Compare with", next(k for k, v in compare._ids.items() if v == 2))
+        choose(page, "Compare with", compare.label_of(2))
         lanes(page, "second").wait_for()
         page.get_by_text("took the same path", exact=False).first.wait_for()
         caption = page.get_by_text("#2 (", exact=False).first.inner_text()
@@ -268,7 +265,7 @@ def test_compared_sessions_each_have_their_scale_and_part_only_when_paths_differ
         # The clicked session (wall clock) against a simulated one: each spans its
         # own picture, whatever their lengths.
         open_session(page, dashboard, clicked)
-        choose(page, "Compare with", next(k for k, v in compare._ids.items() if v == 1))
+        choose(page, "Compare with", compare.label_of(1))
         lanes(page, "second").wait_for()
         store = dashboard.store
         parted = divergence(store.events(clicked), store.events(1)) is not None

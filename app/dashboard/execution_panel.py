@@ -143,6 +143,11 @@ class ExecutionPanel:
     def running(self) -> bool:
         return self.executor is not None and not self.executor.done
 
+    @property
+    def preparing(self) -> bool:
+        """Between a start and its execution running (or refused)."""
+        return self._preparing
+
     def start(self, client_id: int | None = None, client: viser.ClientHandle | None = None) -> None:
         """Starts executing the shown plan, driven by page `client_id` (None: the server).
         Preparing (the voice, the camera, the repairer) runs in its own thread, so

@@ -17,7 +17,7 @@ that (restoring the layout, the camera's enlarged frame) goes to the one page
 that asked.
 
 Widths are chosen for 1600×1000 and still leave the bench 452 px at
-1280×800 (measured in headless Chromium, see the README's screenshots).
+1280×800 (measured in headless Chromium, see the screenshots in docs/dashboard.md).
 """
 
 from __future__ import annotations

@@ -147,6 +147,10 @@ class CompareView:
         self.pick.value = NO_COMPARISON
         self.clear()
 
+    def label_of(self, session_id: int) -> str | None:
+        """The label under which the picker lists `session_id` (None: not listed)."""
+        return next((label for label, i in self._ids.items() if i == session_id), None)
+
     def clear(self) -> None:
         self.other, self.marked, self.other_marked = None, None, None
         self.other_events, self.caption = (), ""

@@ -162,6 +162,10 @@ class ReviewPanel:
         self.summary.content = f"{len(sessions)} session(s).{more}"
         self.study.refresh()
 
+    def label_of(self, session_id: int) -> str | None:
+        """The label under which the picker lists `session_id` (None: not listed)."""
+        return next((label for label, i in self._ids.items() if i == session_id), None)
+
     def open(self, label: str) -> None:
         session_id = self._ids.get(label)
         if session_id is None or self.executing:
