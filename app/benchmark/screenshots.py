@@ -4,7 +4,9 @@
 also run by `make bench`) writes, into `docs/screenshots` by default:
 
 - `tree-default.png`, `tree-U10.png`: each plan just made, its tree opened on
-  the expected branch;
+  the expected branch, the root's details under the tree;
+- `tree-U10-wide.png`: the U10 tree beside the bench ("Wide"), a sensing node
+  selected (its details with why it senses);
 - `execution-1600x1000.png`, `execution-1280x800.png`: an execution of the
   default plan while the simulated human's question waits, the path taken
   marked on the tree;
@@ -60,6 +62,16 @@ def trees(out: Path) -> None:
             plan_in_page(dashboard, page)
             time.sleep(SETTLE_S)
             shoot(page, out / f"tree-{name}.png")
+            if name != "U10":
+                continue
+            page.get_by_role("button", name="Wide", exact=True).click()
+            plan = dashboard.plan
+            assert plan is not None
+            sensing = next(n for n, _ in plan.expected_path() if plan.nodes[n].kind == "sensing")
+            dashboard.go_to(sensing)
+            wait_for(lambda: dashboard.screen.bench_at == sensing)  # noqa: B023 (waited here)
+            time.sleep(SETTLE_S)
+            shoot(page, out / f"tree-{name}-wide.png")
 
 
 def execution(out: Path, size: tuple[int, int], review: bool) -> None:

@@ -102,6 +102,7 @@ class Dashboard:
         with panels.tree_tab:  # the tree, and the selected node right under it
             self.screen = screen = Screen(server, events)
             self.node_panel = NodePanel(gui, screen, events)
+            screen.tree.add_find_controls()
         screen.tree.on_width = panels.widen_tree
         gui.add_markdown(GUIDE)
         # Plan above the scenario's fields: its status names the scenario loaded, and

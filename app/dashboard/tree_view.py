@@ -76,7 +76,7 @@ _HANDLERS = (
 # The picture fills the tab's width and most of the tree panel's height, leaving
 # the selected node's first lines below it in view.
 _SVG_STYLE = (
-    'style="width:100%;height:max(210px,calc(50vh - 190px));cursor:grab;'
+    'style="width:100%;height:max(200px,calc(50vh - 215px));cursor:grab;'
     'touch-action:none;user-select:none"'
 )
 _STYLE = (
@@ -126,14 +126,23 @@ class TreeView:
         view = gui.add_button_group("View", (*ZOOMS, *WIDTHS))
         view.on_click(self._view_clicked)
         self.fit_note = gui.add_markdown("")
+        self.picture = gui.add_html(_STYLE + EMPTY)
+        # Under the picture and the selected node's details (added by the dashboard
+        # between them), so those two share the panel's height.
+        self._gui = gui
+        self.found: Any = None
+        self.follow: Any = None
+
+    def add_find_controls(self) -> None:
+        """Find, Follow and the legend, in a folder closed at first."""
+        gui = self._gui
         with gui.add_folder("Find, follow, legend", expand_by_default=False):
             self.find_text: Any = gui.add_text("Find action or node", "")
             self.find_button = gui.add_button("Find next")
             self.find_button.on_click(lambda _: self.find(str(self.find_text.value)))
             self.found = gui.add_markdown("")
-            self.follow: Any = gui.add_checkbox("Follow the execution", True)
+            self.follow = gui.add_checkbox("Follow the execution", True)
             gui.add_html(legend_html())
-        self.picture = gui.add_html(_STYLE + EMPTY)
 
     def _view_clicked(self, event: viser.GuiEvent[Any]) -> None:
         what = str(event.target.value)
