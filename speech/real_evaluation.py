@@ -88,6 +88,28 @@ def real_score(clips: list[RealClip], recognize: Callable[[Recording], Heard]) -
     return result
 
 
+def real_scores(
+    clips: list[RealClip], recognize: Callable[[Recording], Heard]
+) -> tuple[RealScore, RealScore]:
+    """The score on the tuning clips and, apart, on the held-out ones."""
+    tuning = real_score([c for c in clips if not c.held_out], recognize)
+    return tuning, real_score([c for c in clips if c.held_out], recognize)
+
+
+def real_report(
+    clips: list[RealClip], recognize: Callable[[Recording], Heard]
+) -> tuple[str, RealScore, RealScore]:
+    """The table on `clips` under a title line, and the two scores it shows."""
+    tuning, held_out = real_scores(clips, recognize)
+    groups = {c.group for c in clips}
+    apart = {c.group for c in clips if c.held_out}
+    title = (
+        f"Accuracy on real recorded speech, {len(clips)} clips of {len(groups)} speaker "
+        f"groups, {len(apart)} held out ({REAL_TARGETS})"
+    )
+    return f"{title}\n{real_table(tuning, held_out)}", tuning, held_out
+
+
 def _pct(part: int, whole: int) -> str:
     return f"{100 * part / whole:6.1f} %" if whole else "     - "
 
