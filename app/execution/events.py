@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal, Protocol, get_args
+from typing import Literal, Protocol, get_args, runtime_checkable
 
 from app.execution.evidence import Evidence
 from app.execution.surprises import Surprise
@@ -112,6 +112,32 @@ class ExecutionControls(Protocol):
         evidence: Evidence | None = None,
         node_id: str | None = None,
     ) -> ExecutionEvent: ...
+
+
+# What a source may do beyond answering, each optional: the walker asks the source
+# with isinstance (runtime-checkable), never by probing attribute names.
+@runtime_checkable
+class Attachable(Protocol):
+    """A source told which execution it answers for (the voice: to pause it and keep
+    the dialogue's turns; a live camera: to keep the human's actions it sees)."""
+
+    def attach(self, controls: ExecutionControls) -> None: ...
+
+    def detach(self, controls: ExecutionControls) -> None: ...
+
+
+@runtime_checkable
+class Interruptible(Protocol):
+    """A source whose wait for an answer an abort ends at once."""
+
+    def interrupt(self) -> None: ...
+
+
+@runtime_checkable
+class Holdable(Protocol):
+    """A source that takes no answer while the execution is paused (a live voice)."""
+
+    def hold(self, held: bool) -> None: ...
 
 
 class OutcomeError(Exception):

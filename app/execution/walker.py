@@ -43,8 +43,11 @@ from app.execution.events import (
     REPAIR,
     ROBOT_FAULT,
     AnswerSource,
+    Attachable,
     EventKind,
     ExecutionEvent,
+    Holdable,
+    Interruptible,
     Outcome,
     OutcomeError,
     OutcomeSource,
@@ -145,9 +148,8 @@ class Executor:
         self.gate = RunGate()
         self._thread: threading.Thread | None = None
         self._done = threading.Event()
-        attach = getattr(source, "attach", None)
-        if callable(attach):
-            attach(self)  # a source that pauses and records (the voice) is told who runs
+        if isinstance(source, Attachable):
+            source.attach(self)  # a source that pauses and records (the voice) is told who runs
 
     # -- controls (any thread) ------------------------------------------------
 
@@ -171,9 +173,8 @@ class Executor:
 
     def _hold_source(self, held: bool) -> None:
         # A live voice takes no answer while paused, whoever paused or resumed.
-        hold = getattr(self.source, "hold", None)
-        if callable(hold):
-            hold(held)
+        if isinstance(self.source, Holdable):
+            self.source.hold(held)
 
     def step(self) -> None:
         """Single-step mode: pauses, and lets exactly one more node run."""
@@ -183,9 +184,8 @@ class Executor:
         self.gate.abort()
         if self.robot is not None:
             self.robot.cancel()
-        interrupt = getattr(self.source, "interrupt", None)
-        if callable(interrupt):
-            interrupt()
+        if isinstance(self.source, Interruptible):
+            self.source.interrupt()
 
     def interrupt(self, reason: str) -> None:
         """Stops the walk as `interrupted` (the program is stopping, not the operator),
@@ -241,9 +241,8 @@ class Executor:
         finally:
             self.current = None
             self.slots.close()  # the motion planner's check cache, in the thread that used it
-            detach = getattr(self.source, "detach", None)
-            if callable(detach):
-                detach(self)  # the voice stops listening
+            if isinstance(self.source, Attachable):
+                self.source.detach(self)  # the voice stops listening
             self._done.set()
         return self.result
 

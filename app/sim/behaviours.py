@@ -27,7 +27,14 @@ import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from app.execution.events import ExecutionControls, Outcome, OutcomeSource, describe
+from app.execution.events import (
+    Attachable,
+    ExecutionControls,
+    Interruptible,
+    Outcome,
+    OutcomeSource,
+    describe,
+)
 from app.execution.surprises import HumanPutDown, HumanTook, Surprise, SurpriseError
 from app.execution.timing import HumanActivity
 from app.sessions.studies import BEHAVIOURS, Behaviour
@@ -89,21 +96,18 @@ class BehavingSource:
         self.declines = 0
 
     def interrupt(self) -> None:
-        stop = getattr(self.inner, "interrupt", None)
-        if callable(stop):
-            stop()
+        if isinstance(self.inner, Interruptible):
+            self.inner.interrupt()
 
     # The channel is handed the execution as if it answered alone (the voice keeps
     # the dialogue's turns and the human's speech, a camera what it sees).
     def attach(self, controls: ExecutionControls) -> None:
-        attach = getattr(self.inner, "attach", None)
-        if callable(attach):
-            attach(controls)
+        if isinstance(self.inner, Attachable):
+            self.inner.attach(controls)
 
     def detach(self, controls: ExecutionControls) -> None:
-        detach = getattr(self.inner, "detach", None)
-        if callable(detach):
-            detach(controls)
+        if isinstance(self.inner, Attachable):
+            self.inner.detach(controls)
 
     def choose(self, node_id: str, node: PlanNode, options: Sequence[str]) -> Outcome | None:
         if node.kind == "communication" and len(options) > 1:

@@ -25,7 +25,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
-from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource
+from app.execution.events import REPAIR, ExecutionEvent, Interruptible, OutcomeSource
 from app.execution.world import place_parts
 from app.sim.hands import HandAction, PacedHands
 from perception.layout import BenchLayout
@@ -446,6 +446,5 @@ class DirectedHuman:
 
     def interrupt(self) -> None:
         """Stops waiting for the intent (a click), as an abort does."""
-        interrupt = getattr(self.intent, "interrupt", None)
-        if callable(interrupt):
-            interrupt()
+        if isinstance(self.intent, Interruptible):
+            self.intent.interrupt()

@@ -30,7 +30,14 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from app.execution.events import AnswerSource, ExecutionControls, Node, Outcome, describe
+from app.execution.events import (
+    AnswerSource,
+    ExecutionControls,
+    Interruptible,
+    Node,
+    Outcome,
+    describe,
+)
 from app.execution.evidence import CameraDecision, CameraReading, Evidence, Truth
 from app.execution.surprises import Surprise
 from app.sources.camera_feed import View, ViewFeed, settle_frames
@@ -232,9 +239,8 @@ class CameraSource:
         """Ends a look under way, and every later one, without an answer (an abort);
         whoever acts before a look is interrupted too (a click being waited for)."""
         self._interrupted.set()
-        interrupt = getattr(self.before, "interrupt", None)
-        if callable(interrupt):
-            interrupt()
+        if isinstance(self.before, Interruptible):
+            self.before.interrupt()
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         action = node.action

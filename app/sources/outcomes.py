@@ -21,7 +21,9 @@ from typing import IO, Protocol
 
 from app.execution.events import (
     AnswerSource,
+    Attachable,
     ExecutionControls,
+    Interruptible,
     Node,
     Outcome,
     OutcomeError,
@@ -334,23 +336,20 @@ class FallbackSource:
 
     def interrupt(self) -> None:
         for source in (self.primary, self.fallback):
-            interrupt = getattr(source, "interrupt", None)
-            if callable(interrupt):
-                interrupt()
+            if isinstance(source, Interruptible):
+                source.interrupt()
 
     # Both are handed the execution the walker attaches (a live camera keeps the
     # human's actions it sees), as if each answered alone.
     def attach(self, controls: ExecutionControls) -> None:
         for source in (self.primary, self.fallback):
-            attach = getattr(source, "attach", None)
-            if callable(attach):
-                attach(controls)
+            if isinstance(source, Attachable):
+                source.attach(controls)
 
     def detach(self, controls: ExecutionControls) -> None:
         for source in (self.primary, self.fallback):
-            detach = getattr(source, "detach", None)
-            if callable(detach):
-                detach(controls)
+            if isinstance(source, Attachable):
+                source.detach(controls)
 
     def choose(self, node_id: str, node: Node, options: Sequence[str]) -> Outcome | None:
         reason: str
