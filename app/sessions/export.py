@@ -57,9 +57,9 @@ def export_event(event: ExecutionEvent) -> dict[str, Any]:
     }
 
 
-def exported_event(row: Mapping[str, Any]) -> ExecutionEvent:
-    """The event of an exported row (its evidence without the picture)."""
-    evidence = row.get("evidence")
+def row_event(row: Mapping[str, Any], evidence: Evidence | None = None) -> ExecutionEvent:
+    """The event of a row with `event_row`'s fields and its times (`start`, `end`,
+    `wait_start`; absent: untimed), as exported and as the store reads it back."""
     return ExecutionEvent(
         seq=row["seq"],
         time=row["time"],
@@ -70,11 +70,17 @@ def exported_event(row: Mapping[str, Any]) -> ExecutionEvent:
         source=row["source"],
         confidence=row["confidence"],
         text=row["text"],
-        evidence=None if evidence is None else Evidence.from_json(evidence),
+        evidence=evidence,
         start=row.get("start"),
         end=row.get("end"),
         wait_start=row.get("wait_start"),
     )
+
+
+def exported_event(row: Mapping[str, Any]) -> ExecutionEvent:
+    """The event of an exported row (its evidence without the picture)."""
+    evidence = row.get("evidence")
+    return row_event(row, None if evidence is None else Evidence.from_json(evidence))
 
 
 def events_csv(events: Iterable[ExecutionEvent]) -> str:

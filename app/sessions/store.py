@@ -31,11 +31,10 @@ from sqlite_utils.db import Table
 from app.execution.events import Clock, ExecutionEvent, Result, is_step
 from app.execution.evidence import Evidence
 from app.sessions.database import StoreError, open_database, unusable
-from app.sessions.export import EXPORT_FORMAT, event_row, export_event
+from app.sessions.export import EXPORT_FORMAT, event_row, export_event, row_event
 from app.sessions.processes import boot_id, owner_alive
 from app.sessions.studies import ensure_table
 from planner.plan.model import Plan
-from planner.vocabulary import parse_action
 
 # Stored plans whose hash is remembered, so the same plan object is not
 # serialised again (large plans take tens of milliseconds); bounded, so a
@@ -375,25 +374,14 @@ class SessionStore:
             )
             names = [d[0] for d in cursor.description]
             rows = [dict(zip(names, r, strict=True)) for r in cursor.fetchall()]
+        # The table names a step's times started/ended (absent in a store opened
+        # read-only before timing); an export names them start/end.
         return [
-            ExecutionEvent(
-                seq=r["seq"],
-                time=r["time"],
-                node=r["node"],
-                action=None if r["action"] is None else parse_action(r["action"]),
-                kind=r["kind"],
-                outcome=r["outcome"],
-                source=r["source"],
-                confidence=r["confidence"],
-                text=r["text"],
-                start=r.get("started"),  # absent in a store opened read-only before timing
-                end=r.get("ended"),
-                wait_start=r.get("wait_start"),
-                evidence=(
-                    Evidence.from_json(json.loads(r["evidence_detail"] or "{}"), r["evidence_jpeg"])
-                    if r["has_evidence"]
-                    else None
-                ),
+            row_event(
+                {**r, "start": r.get("started"), "end": r.get("ended")},
+                Evidence.from_json(json.loads(r["evidence_detail"] or "{}"), r["evidence_jpeg"])
+                if r["has_evidence"]
+                else None,
             )
             for r in rows
         ]
