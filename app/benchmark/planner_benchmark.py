@@ -17,9 +17,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from app.benchmark.bench_peak import PeakRss
 from planner.audit.branches import audit
 from planner.plan.model import STAT_KEYS, format_table
-from planner.planning import plan_scenario
+from planner.planning import PlanResult, plan_scenario
 from planner.resources import scenario_path
 from planner.scenario import paper
 from planner.scenario.loading import Scenario, load_scenario, parse_scenario
@@ -167,6 +168,9 @@ class BenchmarkRow:
     violations: int | None = None  # None: not audited (no plan, or the audit failed)
     check: str = ""
     audit_s: float = 0.0
+    # The largest resident set of the planning process and its children while the
+    # chosen run planned, summed (`bench_peak`); the audit comes after it.
+    peak_rss_mb: float = 0.0
     error: str | None = None
 
     @property
@@ -214,35 +218,39 @@ def run_instance(
 ) -> BenchmarkRow:
     """Plans `instance` `repeat` times; statistics and audit come from the median-time run.
 
-    Each run starts with an empty check cache (a cold run, timed), then plans again
-    with the cache it filled, which gives the cached check time.
+    Each run starts with an empty check cache (a cold run, timed), then, with
+    geometric feasibility, plans again with the cache it filled, which gives the
+    cached check time (declared feasibility has no checks to cache).
     """
     scenario = load(instance, directory, feasibility)
     row = BenchmarkRow(instance)
-    runs = []
+    runs: list[tuple[float, PlanResult, float]] = []
     cold: list[float] = []
     cached: list[float] = []
     for _ in range(max(1, repeat)):
         with tempfile.TemporaryDirectory(prefix="tandem-bench-") as cache_dir:
             t0 = time.perf_counter()
             try:
-                result = plan_scenario(scenario, workers=workers, cache_dir=cache_dir)
+                with PeakRss() as peak:
+                    result = plan_scenario(scenario, workers=workers, cache_dir=cache_dir)
             except DeadEnd as err:
                 row.error = f"no plan: {err}"
                 row.check = "no plan"
                 return row
-            runs.append((time.perf_counter() - t0, result))
-            again = plan_scenario(scenario, workers=workers, cache_dir=cache_dir)
-        cold.append(result.plan.statistics["checks_s"])
-        cached.append(again.plan.statistics["checks_s"])
+            runs.append((time.perf_counter() - t0, result, peak.mb))
+            cold.append(result.plan.statistics["checks_s"])
+            if scenario.feasibility.source == "geometry":
+                again = plan_scenario(scenario, workers=workers, cache_dir=cache_dir)
+                cached.append(again.plan.statistics["checks_s"])
     row.checks_cold_s = statistics.median(cold)
-    row.checks_cached_s = statistics.median(cached)
-    row.runs_s = [t for t, _ in runs]
+    row.checks_cached_s = statistics.median(cached) if cached else 0.0
+    row.runs_s = [t for t, _, _ in runs]
     # median_low picks a real run, so its tree, time and audit belong together.
     median_s = statistics.median_low(row.runs_s)
-    _, chosen = next(r for r in runs if r[0] == median_s)
+    _, chosen, row.peak_rss_mb = next(r for r in runs if r[0] == median_s)
+    row.first_branch_s = statistics.median(r.first_branch_s for _, r, _ in runs)
+    del runs  # the other runs' plans: large benches hold hundreds of MB each
     row.plan_s = median_s
-    row.first_branch_s = statistics.median(r.first_branch_s for _, r in runs)
     row.stats = {k: int(chosen.plan.statistics[k]) for k in STAT_KEYS}
     row.solves = chosen.solves
     t0 = time.perf_counter()
@@ -282,7 +290,7 @@ def run(
 
 HEADER = (
     "instance", "fam/n", "L", "D=A+S+C", "K", "O", "CF", "R", "DN", "BF", "N", "dag",
-    "1st s", "plan s", "chk cold", "chk cached", "check", "|",
+    "1st s", "plan s", "peak MB", "chk cold", "chk cached", "check", "audit s", "|",
     "p.L", "p.D=A+S+C", "p.K", "p.O", "p.C", "p.R", "p.DN", "p.BF", "p.N", "p.plan s",
     "p.checks s", "ratio",
 )  # fmt: skip
@@ -301,10 +309,10 @@ def table_row(row: BenchmarkRow) -> tuple[str, ...]:
     if s:
         keys = ("L", "D", "K", "O", "CF", "R", "DN", "BF", "N", "dag_nodes")
         ours = tuple(_d(s) if k == "D" else str(s[k]) for k in keys)
-        ours += (f"{row.first_branch_s:.2f}", f"{row.plan_s:.2f}")
+        ours += (f"{row.first_branch_s:.2f}", f"{row.plan_s:.2f}", f"{row.peak_rss_mb:.0f}")
         ours += (f"{row.checks_cold_s:.2f}", f"{row.checks_cached_s:.3f}")
     else:
-        ours = ("-",) * 14
+        ours = ("-",) * 15
     p = row.paper
     theirs: tuple[str, ...]
     if p is not None:
@@ -314,7 +322,8 @@ def table_row(row: BenchmarkRow) -> tuple[str, ...]:
         theirs = ("-",) * 11
     ratio = f"{row.ratio:.0f}x" if row.ratio is not None else "-"
     family = f"{inst.family}{inst.n}" if inst.family else "-"
-    return (inst.name, family, *ours, row.check, "|", *theirs, ratio)
+    audit_s = f"{row.audit_s:.2f}" if row.violations is not None else "-"
+    return (inst.name, family, *ours, row.check, audit_s, "|", *theirs, ratio)
 
 
 def summary(rows: Sequence[BenchmarkRow], repeat: int = 1) -> list[str]:
@@ -332,7 +341,17 @@ def summary(rows: Sequence[BenchmarkRow], repeat: int = 1) -> list[str]:
         )
     if planned:
         worst = max(planned, key=lambda r: r.plan_s)
-        lines.append(f"worst instance: {worst.instance.name} {worst.plan_s:.2f} s")
+        lines.append(
+            f"worst instance: {worst.instance.name} {worst.plan_s:.2f} s (first branch "
+            f"{worst.first_branch_s:.2f} s, {worst.stats['dag_nodes']:,} distinct nodes, "
+            f"peak RSS {worst.peak_rss_mb:,.0f} MB, audit {worst.audit_s:.2f} s)"
+        )
+        heavy = max(planned, key=lambda r: r.peak_rss_mb)
+        slow = max(planned, key=lambda r: r.audit_s)
+        lines.append(
+            f"largest peak RSS (planning, children included): {heavy.instance.name} "
+            f"{heavy.peak_rss_mb:,.0f} MB; slowest audit: {slow.instance.name} {slow.audit_s:.2f} s"
+        )
         first = max(planned, key=lambda r: r.first_branch_s)
         lines.append(f"worst first branch: {first.instance.name} {first.first_branch_s:.2f} s")
         cold = max(planned, key=lambda r: r.checks_cold_s)
