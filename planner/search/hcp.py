@@ -342,13 +342,16 @@ class ConditionalPlanner:
                 break  # the rest of this branch is already planned
             node.action = step.action
             self._fresh.append(node)
-            node.children = [(o.label, o.state) for o in step.outcomes]
             node.expected = step.chosen
             last = step is result.steps[-1]
             for outcome in step.outcomes:
-                label, succ = outcome.label, outcome.state
-                child = self._node(succ, outcome.goal)
-                self.parents[succ].add(step.state)
+                label, child = outcome.label, self._node(outcome.state, outcome.goal)
+                # The DAG holds each state once: edges name the node's own state, not
+                # the equal one of this result (U30: 118,000 states, kept two or three
+                # times over before).
+                succ = child.state
+                node.children.append((label, succ))
+                self.parents[succ].add(node.state)
                 # Other outcomes need plans of their own; so does the end of
                 # this branch when it stopped at a milestone short of the goal.
                 if child.action is not None or child.goal:
