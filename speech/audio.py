@@ -45,8 +45,12 @@ class Recording:
 def as_int16(samples: npt.NDArray[np.generic]) -> Samples:
     """int16 samples from int16 or float (-1..1) input, mixed down to mono."""
     array = np.asarray(samples)
-    if array.ndim == 2:
-        array = array.mean(axis=1)
+    if array.ndim == 2:  # frames x channels, as a device records them
+        mixed = array.mean(axis=1)
+        # The mean of integer samples is a float in their own scale, not -1..1: it
+        # stays integer (a recording of 1 channel was once clipped to full scale).
+        integer = not np.issubdtype(array.dtype, np.floating)
+        array = np.round(mixed).astype(np.int64) if integer else mixed
     if np.issubdtype(array.dtype, np.floating):
         return (np.clip(array, -1.0, 1.0) * 32767).astype(np.int16)
     if array.dtype == np.int16:

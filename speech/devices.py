@@ -53,6 +53,15 @@ def sounddevice_module() -> Any:
     return sounddevice
 
 
+def rescan() -> None:
+    """PortAudio lists the devices once, when it starts: a device that appears later (a
+    microphone plugged in, a sound server started) is seen after a rescan. Streams
+    still open are closed by it."""
+    sd = sounddevice_module()
+    sd._terminate()
+    sd._initialize()
+
+
 def require_device(kind: Literal["input", "output"], device: int | None = None) -> Any:
     """sounddevice, after checking that `device` (else the default one of `kind`) exists."""
     sd = sounddevice_module()

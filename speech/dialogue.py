@@ -16,7 +16,13 @@ answer is awaited (`Ear.answer`), and is then judged:
 - **Timeouts.** No utterance within `no_speech_s` of the robot's last word is
   "no speech"; an utterance cut by `max_utterance_s` is "too long" (and the
   rest of it is ignored until the next pause). Either ends the wait, so the
-  question is asked again and then falls back, as a refusal does.
+  question is asked again and then falls back, as a refusal does. The
+  no-speech time runs on the stream's clock, which stands still when no audio
+  comes (a device that hangs, an ear whose thread failed): a wait that gets no
+  audio for `no_speech_s` of wall time ends too ("no audio"), so an answer wait
+  always ends, unless the execution is paused (held) and the stream goes on.
+  A stream that fails (a device unplugged) ends the ear (`lost`, `on_lost`);
+  the ear's thread is the stream's only reader and closes it as it ends.
 - **Commands.** "stop" (and "wait", 멈춰, 잠깐, 정지) and "continue" (계속,
   계속해) are heard at any time, with the recogniser's rejection strategy on a
   grammar of the commands (the answers and the language's distractor words
@@ -25,8 +31,9 @@ answer is awaited (`Ear.answer`), and is then judged:
   is taken, since stopping is always safe, but only where the robot's voice is
   cancelled: without the canceller the window holds the robot's own words (its
   closing line, 테이블이 완성됐어요…, was once heard as 멈춰 and paused the
-  run). While the ear is `held` (the execution is paused) no answer is taken
-  and the no-speech time does not run.
+  run). An utterance that is both a command and an answer is the command
+  (`speech.commands` says why). While the ear is `held` (the execution is
+  paused) no answer is taken and the no-speech time does not run.
 
 Measured on espeak-ng's voices (12 each: variants, speeds, pitches, half
 with noise). Korean (vosk): 멈춰 9/12, 잠깐 9/12, 잠깐만 6/12, 정지 7/12 taken
@@ -42,29 +49,27 @@ acts while paused). A person repeats a command the robot did not obey.
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
 from speech.audio import BLOCK, RATE, Samples, level_db
-from speech.languages import Language, language
-from speech.recognition import Decoding, Heard, Recognizer
+from speech.commands import COMMAND_WORDS, Command, Commands
+from speech.recognition import Decoding, Recognizer
 from speech.sources import BlockStream
 from speech.voice_activity import FRAME_S, EchoCanceller, EndOfSpeech, activity
 
+__all__ = [
+    "BLOCK_S", "COMMAND_WORDS", "Answer", "Command", "Commands", "DialogueTimes", "Ear",
+    "Hearing",
+]  # fmt: skip
+
 BLOCK_S = BLOCK / RATE
 # Why the dialogue (not the recogniser) refused what it heard.
-DialogueRefusal = Literal["no speech", "own voice", "too long"]
-Command = Literal["stop", "continue"]
-
-# Stop and continue phrases per language (words of the language's speech model).
-COMMAND_WORDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "ko": (("멈춰", "잠깐", "정지"), ("계속", "계속해")),
-    "en-us": (("stop", "wait"), ("continue", "resume")),
-}
+DialogueRefusal = Literal["no speech", "no audio", "own voice", "too long"]
 
 
 @dataclass(frozen=True)
@@ -122,33 +127,13 @@ class Answer:
 
     hearing: Hearing | None
     own_voice: list[Hearing] = field(default_factory=list)
+    no_audio: bool = False  # ended because the stream gave no audio
 
     @property
     def reason(self) -> str | None:
         if self.hearing is None:
-            return "no speech"
+            return "no audio" if self.no_audio else "no speech"
         return self.hearing.reason
-
-
-class Commands:
-    """Stop and continue, heard with the rejection strategy of `Recognizer`: the
-    stop phrases stand where the yes words do, the continue phrases where the no
-    words do, and the answer words join the distractors."""
-
-    def __init__(self, language_code: str | Language, model_dir: Path | str | None = None):
-        lang = language_code if isinstance(language_code, Language) else language(language_code)
-        stop, go_on = COMMAND_WORDS[lang.code]
-        distractors = (*lang.distractors, *lang.yes_words, *lang.no_words)
-        self.recognizer = Recognizer(lang, model_dir, stop, go_on, distractors)
-
-    def start(self) -> Decoding:
-        return self.recognizer.start()
-
-    @staticmethod
-    def command_of(heard: Heard) -> Command | None:
-        if heard.meaning == "yes":
-            return "stop"
-        return "continue" if heard.meaning == "no" else None
 
 
 CommandListener = Callable[[Command, Hearing], None]
@@ -188,12 +173,17 @@ class Ear:
         self.commands = commands
         self.on_command = on_command
         self.on_heard: HearingListener | None = None
+        self.on_lost: Callable[[str], None] | None = None  # the stream failed (one line)
+        self.lost: str | None = None  # why the stream failed, once it has
         self.canceller = EchoCanceller() if cancel_echo else None
         self.cut = EndOfSpeech(BLOCK_S, start_db, times.end_of_speech_s, times.max_utterance_s)
         self.heard: list[Hearing] = []
         self.held = False
         self._cond = threading.Condition(threading.RLock())
         self._robot: list[tuple[float, float]] = []  # when the robot spoke (stream time)
+        # Its own lock, taken last: the robot may be told of while a room holds its own
+        # lock (`SimulatedRoom.play_robot`), which the ear's thread takes under `_cond`.
+        self._robot_lock = threading.Lock()
         self._awaiting: Recognizer | None = None
         self._answer: Answer | None = None
         self._current: _Utterance | None = None
@@ -211,24 +201,34 @@ class Ear:
         self._thread.start()
         return self
 
-    def close(self) -> None:
+    def close(self, wait_s: float = 1.0) -> None:
+        """Stops listening; the stream (a device) is released before this returns, once
+        the read under way has ended (within `wait_s`)."""
         with self._cond:
             self._closed = True
             self._cond.notify_all()
+        if self._thread is threading.current_thread():
+            return  # the ear's own thread releases it as it ends
+        if self._thread.is_alive():
+            self._thread.join(wait_s)
+        elif self._thread.ident is None:  # never started: nobody else will release it
+            close = getattr(self.stream, "close", None)
+            if callable(close):
+                close()
 
     def robot_speaks(self, samples: Samples, start_s: float) -> None:
         """The robot says `samples` from stream time `start_s` (as played); its voice
         ends with its last loud frame (espeak-ng ends on ~0.3 s of silence)."""
         loud = np.flatnonzero(activity(samples, RATE).active)
         end_s = start_s + (loud[-1] + 1) * FRAME_S if loud.size else start_s
-        with self._cond:
+        with self._robot_lock:
             self._robot.append((start_s, end_s))
         if self.canceller is not None:
             self.canceller.add(samples, start_s)
 
     def robot_stopped(self, at_s: float) -> None:
         """The robot fell silent at `at_s`, before the end of what it was saying."""
-        with self._cond:
+        with self._robot_lock:
             self._robot = [(start, min(end, at_s)) for start, end in self._robot]
         if self.canceller is not None:
             self.canceller.cut(at_s)
@@ -242,7 +242,7 @@ class Ear:
     @property
     def robot_until_s(self) -> float:
         """The end of the self-hearing window: the robot's last word and the tail."""
-        with self._cond:
+        with self._robot_lock:
             last = max((end for _, end in self._robot), default=0.0)
         return last + self.times.echo_tail_s
 
@@ -259,9 +259,18 @@ class Ear:
         with self._cond:
             self._awaiting, self._answer = recognizer, Answer(None)
             self._quiet_from = self.stream.position_s
+            heard_at, position = time.monotonic(), self.stream.position_s
             try:
                 while not self._closed and not self._interrupted:
                     if self._answer.hearing is not None or self._silent_for(wait):
+                        break
+                    if self.stream.position_s != position:
+                        heard_at, position = time.monotonic(), self.stream.position_s
+                    elif time.monotonic() - heard_at >= wait:
+                        # No audio for the no-speech time on the wall clock: the stream's
+                        # time stands still (a device that hangs, an ear that died), so
+                        # its no-speech time would never pass.
+                        self._answer.no_audio = True
                         break
                     self._cond.wait(BLOCK_S)
                 self._interrupted = False
@@ -281,18 +290,34 @@ class Ear:
     # -- the thread -------------------------------------------------------------
 
     def _run(self) -> None:
-        while not self._closed:
-            block = self.stream.read()
-            end_s = self.stream.position_s
-            if self.canceller is not None:
-                block = self.canceller.cancel(block, end_s)
-            with self._cond:
-                self._hear(block, end_s)
-                self._cond.notify_all()
+        try:
+            while not self._closed:
+                block = self.stream.read()
+                end_s = self.stream.position_s
+                if self.canceller is not None:
+                    block = self.canceller.cancel(block, end_s)
+                with self._cond:
+                    self._hear(block, end_s)
+                    self._cond.notify_all()
+        except Exception as error:  # the device went away: the ear ends, the owner is told
+            self._lose(" ".join(str(error).split()) or type(error).__name__)
+        finally:
+            # The ear is the stream's only reader: it releases the device, on every exit.
+            close = getattr(self.stream, "close", None)
+            if callable(close):
+                close()
+
+    def _lose(self, why: str) -> None:
+        with self._cond:
+            self.lost, self._closed = why, True
+            self._cond.notify_all()
+        if self.on_lost is not None:
+            self.on_lost(why)
 
     def _in_window(self, at_s: float) -> bool:
         tail = self.times.echo_tail_s
-        return any(start <= at_s <= end + tail for start, end in self._robot)
+        with self._robot_lock:
+            return any(start <= at_s <= end + tail for start, end in self._robot)
 
     def _hear(self, block: Samples, end_s: float) -> None:
         """One block, under the lock: an utterance starts, goes on or ends."""
@@ -395,50 +420,3 @@ class Ear:
             current.start_s, end_s, heard.words, heard.confidence,
             meaning=None if refusal else heard.meaning, reason=refusal or heard.reason,
         )  # fmt: skip
-
-
-def stop_latency(code: str, seeds: range, cache: Path) -> list[float | None]:
-    """Seconds from the end of a stop word to the ear's command, per seed (None: not
-    heard); the word is said over the robot's sentence for odd seeds, in quiet else."""
-    commands = Commands(code)
-    return [_one_stop(commands, seed, cache) for seed in seeds]
-
-
-def _one_stop(commands: Commands, seed: int, cache: Path) -> float | None:
-    from speech.audio import read_wav, resample
-    from speech.sources import SimulatedRoom, SimulatedVoice
-    from speech.synthesis import synthesize
-
-    code = commands.recognizer.language.code
-    room = SimulatedRoom(seed)
-    heard: list[float] = []
-    ear = Ear(room, commands=commands, on_command=lambda c, h: heard.append(room.position_s))
-    ear.start()
-    text = "Can you hold the top for me?" if code == "en-us" else "상판을 잡아 줄게요."
-    sentence = read_wav(synthesize(text, code, "espeak", cache).path)
-    samples = resample(sentence.samples, sentence.rate, RATE)
-    span = room.play_robot(samples)
-    ear.robot_speaks(samples, span.start_s)
-    human = SimulatedVoice(code, seed=seed, room=room)
-    stops = COMMAND_WORDS[code][0]
-    human.say_at(stops[seed % len(stops)], span.start_s + 0.3 if seed % 2 else span.end_s + 0.5)
-    said = human.spoken_at
-    assert said is not None
-    while room.position_s < said.end_s + 1.0:
-        threading.Event().wait(BLOCK_S)
-    ear.close()
-    return heard[0] - said.speech_end_s if heard else None
-
-
-if __name__ == "__main__":  # python -m speech.dialogue: how soon "stop" is heard
-    import statistics
-    import tempfile
-
-    with tempfile.TemporaryDirectory() as folder:
-        for lang in ("ko", "en-us"):
-            measured = stop_latency(lang, range(12), Path(folder))
-            times = sorted(t for t in measured if t is not None)
-            print(
-                f"{lang}: stop heard {len(times)}/{len(measured)}; after the end of the "
-                f"word: median {statistics.median(times):.3f} s, worst {times[-1]:.3f} s"
-            )

@@ -131,18 +131,24 @@ class SimulatedRoom:
 
     def play(self, samples: Samples, at_s: float | None = None) -> Span:
         """`samples` heard from stream time `at_s` (default now); where they are."""
-        return self._add(samples.astype(np.float64), self.now_s() if at_s is None else at_s)
+        audio = samples.astype(np.float64)
+        with self._lock:
+            return self._add(audio, self.now_s() if at_s is None else at_s)
 
-    def play_robot(self, samples: Samples) -> Span:
+    def play_robot(
+        self, samples: Samples, told: Callable[[Samples, float], None] | None = None
+    ) -> Span:
         """The robot's speakers: its sentence, after the one it is saying, as the
-        microphone hears it (the room's echo path)."""
+        microphone hears it (the room's echo path). `told` learns the samples and
+        where they start before the microphone can hear any of them (an ear told
+        once they were placed missed the robot's first words on a loaded machine)."""
+        heard = np.convolve(samples.astype(np.float64), self._echo)
         with self._lock:
             # 50 ms of output latency, as a sound card has: who plays it learns where
             # it is before the microphone hears it.
             at = max(self.now_s() + 0.05, self.robot_until_s)
-        heard = np.convolve(samples.astype(np.float64), self._echo)
-        span = self._add(heard, at, robot=True)
-        with self._lock:
+            place = None if told is None else lambda start_s: told(samples, start_s)
+            span = self._add(heard, at, robot=True, told=place)
             self.robot_until_s = span.end_s
         return span
 
@@ -156,13 +162,25 @@ class SimulatedRoom:
             ]
             self.robot_until_s = min(self.robot_until_s, cut / RATE)
 
-    def _add(self, audio: npt.NDArray[np.float64], at_s: float, robot: bool = False) -> Span:
-        start = int(round(at_s * RATE))
+    def _add(
+        self,
+        audio: npt.NDArray[np.float64],
+        at_s: float,
+        robot: bool = False,
+        told: Callable[[float], None] | None = None,
+    ) -> Span:
+        """Places `audio` (under the lock): `told` its start before it can be read."""
         loud = activity(np.clip(audio, -32768, 32767).astype(np.int16), RATE)
         frames = np.flatnonzero(loud.active)
         first, last = (frames[0], frames[-1] + 1) if frames.size else (0, 0)
-        with self._lock:
-            self._sounds.append((start, audio, robot))
+        # A time the stream has already passed (the caller was late, on a loaded
+        # machine): heard from now, whole, not with its start cut off; the span says
+        # where it really is (an echo canceller told the planned time subtracted a
+        # start that was never heard, and its residue was taken for speech).
+        start = max(int(round(at_s * RATE)), self._read)
+        if told is not None:
+            told(start / RATE)
+        self._sounds.append((start, audio, robot))
         return Span(
             start / RATE, (start + len(audio)) / RATE,
             start / RATE + first * FRAME_S, start / RATE + last * FRAME_S,
@@ -180,7 +198,7 @@ class SimulatedRoom:
                 lo, hi = max(start, self._read), min(start + len(audio), end)
                 if lo < hi:
                     mixed[lo - self._read : hi - self._read] += audio[lo - start : hi - start]
-        self._read = end
+            self._read = end  # under the lock: a sound added now starts after this block
         block: Samples = np.clip(np.round(mixed), -32768, 32767).astype(np.int16)
         self.level = rms(block)
         return block
@@ -211,6 +229,8 @@ class SimulatedVoice:
         self.room = room
         self.reaction_s = reaction_s
         self.spoken_at: Span | None = None  # where the last words are in the room
+        self.answered_at: Span | None = None  # where the last answer (`say`) is in it
+        self.said: list[Span] = []  # everything said into the room, in order
         self._random = random.Random(seed) if seed is not None else None
         self._noise = np.random.default_rng(seed)
         self.noise_snr_db = noise_snr_db
@@ -243,7 +263,8 @@ class SimulatedVoice:
         self._pending = self.render(answer_text)
         if self.room is not None:
             at = max(self.room.now_s(), self.room.robot_until_s) + self.reaction_s
-            self.spoken_at = self.room.play(self._pending.samples, at)
+            self.spoken_at = self.answered_at = self.room.play(self._pending.samples, at)
+            self.said.append(self.spoken_at)
         return self._pending
 
     def say_at(self, text: str, at_s: float) -> Recording:
@@ -253,6 +274,7 @@ class SimulatedVoice:
             raise ValueError("say_at needs a room to speak into")
         recording = self.render(text)
         self.spoken_at = self.room.play(recording.samples, at_s)
+        self.said.append(self.spoken_at)
         return recording
 
     def listen(self, timeout_s: float) -> Recording | None:
