@@ -17,7 +17,8 @@ from pydantic import ValidationError
 
 from app.execution.events import DIALOGUE_KINDS, ExecutionEvent, is_step
 from app.execution.walker import Executor
-from app.responses.voice import LiveDialogue, VoiceResponses, dialogue_times
+from app.responses.voice import VoiceResponses, dialogue_times
+from app.responses.voice_room import LiveDialogue
 from app.sessions.store import SessionStore
 from app.sources.outcomes import RandomSource
 from app.sources.voice import is_question
@@ -64,9 +65,7 @@ def _robot_says(room: SimulatedRoom, ear: Ear, text: str, code: str, cache: Path
     """The robot's sentence through its speakers into the room; where it is."""
     recording = read_wav(synthesize(text, code, "espeak", cache).path)
     samples = resample(recording.samples, recording.rate, RATE)
-    span = room.play_robot(samples)
-    ear.robot_speaks(samples, span.start_s)
-    return span
+    return room.play_robot(samples, told=ear.robot_speaks)
 
 
 @pytest.mark.parametrize(("code", "cancel_echo"), [("ko", False), ("ko", True), ("en-us", False)])

@@ -17,7 +17,8 @@ import pytest
 from app.execution.events import DIALOGUE_KINDS, ExecutionEvent, is_step
 from app.execution.narration import GOING_ON, STOPPED, Line
 from app.execution.walker import Executor, Waypoint
-from app.responses.voice import LiveDialogue, VoiceResponses
+from app.responses.voice import VoiceResponses
+from app.responses.voice_room import LiveDialogue
 from app.sources.outcomes import RandomSource
 from planner.plan.model import Plan
 from speech.dialogue import Hearing

@@ -13,8 +13,14 @@ import sys
 
 from app.cli.exit_codes import BadInput
 from app.execution.narration import Line, plan_language
-from app.responses.voice import DEFAULT_TIMES, VoiceResponses, dialogue_times, voice_responses
-from app.sources.outcomes import RandomSource, ScriptError
+from app.responses.voice import (
+    DEFAULT_TIMES,
+    MicOptions,
+    VoiceResponses,
+    dialogue_times,
+    voice_responses,
+)
+from app.sources.outcomes import ConsoleSource, FallbackSource, RandomSource, ScriptError
 from app.sources.voice import Attempt
 from planner.plan.model import Plan
 from planner.scenario.model import Human
@@ -62,6 +68,19 @@ def print_fallback(node_id: str, reason: str) -> None:
     print(f"{node_id}: no voice answer ({reason}); a seeded choice", file=sys.stderr)
 
 
+def print_mic_fallback(node_id: str, reason: str) -> None:
+    print(f"{node_id}: no voice answer ({reason}); answer here", file=sys.stderr)
+
+
+def print_lost(why: str) -> None:
+    print(f"the voice has ended ({why}): the questions are answered here", file=sys.stderr,
+          flush=True)  # fmt: skip
+
+
+def print_unplayed(why: str) -> None:
+    print(f"      (not played: {why})", file=sys.stderr)
+
+
 def voice_from_args(
     args: argparse.Namespace, plan: Plan, seed: int | None, human: Human | None = None
 ) -> VoiceResponses:
@@ -72,20 +91,27 @@ def voice_from_args(
         raise BadInput("--responses voice:SOURCE: SOURCE is sim, mic or a folder of WAV files")
     code = args.language or plan_language(plan)
     speak = args.speak or ("local" if spec == "mic" else "none")
+    mic = spec == "mic"
+    # A microphone means a person: what the voice does not answer is theirs to type;
+    # at the end of the input, a seeded choice.
+    fallback = FallbackSource(ConsoleSource(sys.stdin, sys.stderr), RandomSource(seed)) if mic \
+        else RandomSource(seed)  # fmt: skip
     try:
         return voice_responses(
             spec,
             code,
-            RandomSource(seed),
+            fallback,
             seed=seed,
             human=args.human,
             model_dir=args.vosk_model,
             # espeak-ng when played here: local playback takes WAV, gTTS gives MP3.
             engine="espeak" if speak == "local" else "auto",
-            on_line=LocalSpeakers() if speak == "local" else print_line,
+            # The microphone's dialogue plays its lines itself (its ear must know when).
+            on_line=LocalSpeakers() if speak == "local" and not mic else print_line,
             on_attempt=print_attempt,
-            on_fallback=print_fallback,
+            on_fallback=print_mic_fallback if mic else print_fallback,
             times=dialogue_times(human) if human is not None else DEFAULT_TIMES,
+            mic=MicOptions("local" if speak == "local" else "none", print_lost, print_unplayed),
         )
     except (NoSpeechModel, NoAudioDevice, UnknownLanguage, ScriptError) as error:
         raise BadInput(f"--responses {args.responses}: {error}") from error

@@ -288,6 +288,8 @@ class ExecutionPanel:
         if not is_step(event):  # a turn of the dialogue: the log, and a voice pause
             self._add_line(sentence(event))
             self._heard = sentence(event)
+            if event.kind == "fell-back" and "the voice has ended" in (event.text or ""):
+                self._voice = False  # the microphone went away: the clicks answer now
             if event.kind in ("paused", "resumed"):
                 paused = event.kind == "paused"
                 self.pause_button.label = "Resume" if paused else "Pause"

@@ -11,7 +11,11 @@ with `speak="local"`, played on the server's speakers.
 simulated room (the same human in a live room where the ear listens all the
 time: the robot's own voice comes back from its speakers and is refused, and
 **Human says stop** / **Human says continue** have the human say the command
-into the room, over whatever the robot is saying) or the microphone. The
+into the room, over whatever the robot is saying) or the microphone, which
+listens all the time as the room does (`app.responses.voice_mic`: stop and
+continue at any time, the robot's own voice gated, the device opened when the
+execution starts and released when it ends; a device that goes away ends the
+voice in one line and the clicks answer). The
 click buttons stay visible while the voice listens, and a click that comes
 first wins; a question refused twice waits for a click.
 Without a speech model for the plan's language the panel says so in one line
@@ -35,15 +39,16 @@ from app.dashboard.stage import Events, ExecutionFinished, ScenarioChanged, Stag
 from app.execution.events import OutcomeSource
 from app.execution.narration import Line, RobotVoice, plan_language
 from app.execution.walker import Narrator
-from app.responses.voice import VoiceResponses, voice_responses
+from app.responses.voice import MicOptions, VoiceResponses, voice_responses
 from app.sources.outcomes import ClickSource
 from app.sources.voice import Attempt
 from planner.plan.model import Plan
 from speech.devices import NoAudioDevice, play_local
 from speech.dialogue import Command
+from speech.microphone import MicrophoneStream
 from speech.models import NoSpeechModel
 from speech.recognition import Recognizer
-from speech.sources import MicrophoneSource, SimulatedVoice
+from speech.sources import SimulatedVoice
 from speech.synthesis import Engine
 
 Speak = Literal["page", "local"]
@@ -171,6 +176,7 @@ class SpeechPanel:
                     on_attempt=self._heard,
                     on_listening=self._listening,
                     live=mode == ROOM,
+                    mic=MicOptions(self.speak, self._lost, self._unplayed),
                 )
             except (NoSpeechModel, NoAudioDevice) as error:
                 self.heard.content = f"**No voice answers:** {error}. Answer by clicks."
@@ -178,7 +184,7 @@ class SpeechPanel:
             for button in self.says.values():
                 button.disabled = self.voice.room is None
             audio = self.voice.voice.audio
-            if isinstance(audio, MicrophoneSource):
+            if isinstance(audio, MicrophoneStream):
                 audio.on_level = self._level  # the meter moves while a person speaks
             return self.voice.source, self.voice.robot
         if self.mute.value:
@@ -211,10 +217,25 @@ class SpeechPanel:
         self.engine.content = f"Voice: **{line.engine}** ({line.utterance.voice})"
         if self.mute.value:
             return
+        if self.speak == "local" and self._microphone:
+            return  # the microphone's dialogue plays it, so its ear knows when
         if self.speak == "local":
             threading.Thread(target=self._play_local, args=(line,), daemon=True).start()
         else:
             self.audio.content = audio_html(line)
+
+    @property
+    def _microphone(self) -> bool:
+        voice = self.voice
+        return voice is not None and voice.ear is not None and voice.room is None
+
+    def _lost(self, why: str) -> None:
+        """The microphone went away (the ear's thread): said in one line."""
+        self.heard.content = f"**The voice has ended** ({why}): answer by clicks."
+        self._listening(False)
+
+    def _unplayed(self, why: str) -> None:
+        self.engine.content = f"Voice: not played here: {why}"
 
     def _play_local(self, line: Line) -> None:
         assert line.utterance is not None
@@ -248,3 +269,5 @@ class SpeechPanel:
     def close(self) -> None:
         if self.voice is not None:
             self.voice.source.interrupt()
+            if self.voice.ear is not None:
+                self.voice.ear.close()  # the microphone is released

@@ -74,6 +74,12 @@ class StopListener:
         )
         self._saying.start()
 
+    def said(self, timeout_s: float) -> None:
+        """Returns once the robot has said that it stopped or goes on (or `timeout_s`)."""
+        saying = self._saying
+        if saying is not None:
+            saying.join(timeout_s)
+
 
 def _hearing(command: Command, hearing: Hearing, recognizer: str) -> VoiceHearing:
     """The command as the session keeps it: what was heard and what it meant."""
