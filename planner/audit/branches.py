@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from planner.audit.actions import COMMUNICATION, GOAL, KINDS, SimAction, parse_sim_action
+from planner.audit.actions import COMMUNICATION, GOAL, KINDS, SimAction
 from planner.audit.domain import Domain
 from planner.audit.facts import Facts, parse_facts
 from planner.audit.fluents import (
@@ -25,6 +25,7 @@ from planner.audit.fluents import (
 from planner.audit.motions import motion_problems
 from planner.audit.stats import Child, compare_stats, node_children, tree_stats
 from planner.audit.talk import conversation_problems
+from planner.collector_pause import cycle_collection_paused
 from planner.plan.model import FORMAT  # the name only; the checks are our own
 
 ROOT_PATH = "root"
@@ -44,10 +45,7 @@ class Violation:
 def audit(plan: dict[str, Any]) -> list[Violation]:
     """Every violation of docs/domain.md in `plan`, in depth-first order; [] if sound."""
     out: list[Violation] = []
-
-    def plan_level(message: str) -> None:
-        out.append(Violation("", "", message))
-
+    plan_level = _plan_level(out)
     if not isinstance(plan, dict):
         return [Violation("", "", "plan is not a JSON object")]
     if plan.get("format") != FORMAT:
@@ -64,19 +62,34 @@ def audit(plan: dict[str, Any]) -> list[Violation]:
         plan_level(f"root {root!r} is not a node")
         return out
 
-    walker = _Walker(Domain(facts), nodes, out)
+    # The audit keeps every node's state to its end: collections would walk them
+    # all again and again (U30: 7 of 24 CPU-s).
+    with cycle_collection_paused():
+        _check_dag(Domain(facts), plan, out)
+    return out
+
+
+def _check_dag(dom: Domain, plan: dict[str, Any], out: list[Violation]) -> None:
+    """The walk of every branch, then (on a well-formed DAG) the statistics, the
+    motions and the conversation; violations go to `out`. (`plan` has its nodes
+    and root: `audit` made sure of that.)"""
+    nodes, root = plan["nodes"], plan["root"]
+    walker = _Walker(dom, nodes, out)
     walker.run(root)
     for node_id in nodes:
         if node_id not in walker.paths:
             out.append(Violation(node_id, "", "node is not reachable from the root"))
-    if walker.sound:
-        # Statistics and motions only mean something on a well-formed DAG.
-        compare_stats(plan.get("stats"), tree_stats(plan), plan_level)
-        for node_id, message in motion_problems(nodes, root):
-            out.append(Violation(node_id, walker.paths.get(node_id, ""), message))
-        for node_id, message in conversation_problems(walker.dom, nodes, root, walker.state):
-            out.append(Violation(node_id, walker.paths.get(node_id, ""), message))
-    return out
+    if not walker.sound:
+        return  # statistics and motions only mean something on a well-formed DAG
+    compare_stats(plan.get("stats"), tree_stats(plan), _plan_level(out))
+    for node_id, message in motion_problems(nodes, root):
+        out.append(Violation(node_id, walker.paths.get(node_id, ""), message))
+    for node_id, message in conversation_problems(dom, nodes, root, walker.state):
+        out.append(Violation(node_id, walker.paths.get(node_id, ""), message))
+
+
+def _plan_level(out: list[Violation]) -> Callable[[str], None]:
+    return lambda message: out.append(Violation("", "", message))
 
 
 def format_report(violations: Sequence[Violation]) -> str:
@@ -181,7 +194,7 @@ class _Walker:
         text = self.check_kind(raw, kids, None if state_errors else state, report)
         if text is None:
             return kids
-        action = parse_sim_action(text, self.dom.f)
+        action = self.dom.action(text)
         if isinstance(action, str):
             report(action)
             return kids

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from planner.audit.actions import CONVERSATION, parse_sim_action
+from planner.audit.actions import CONVERSATION
 from planner.audit.domain import Domain
 from planner.audit.fluents import SimState, parse_sim_state
 
@@ -38,7 +38,7 @@ def due(dom: Domain, s: SimState, action: str | None, *, first: bool) -> list[st
     if action is None:
         out.append((4, "farewell"))
         return [text for _, text in sorted(out)]
-    parsed = parse_sim_action(action, f)
+    parsed = dom.action(action)
     if isinstance(parsed, str) or parsed.name in CONVERSATION:
         return [text for _, text in sorted(out)]
     name, args = parsed.name, parsed.args
