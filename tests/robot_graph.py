@@ -120,6 +120,18 @@ def sim_baxter(
     finally:
         if process.poll() is None:
             sim.stop()
+        _unlatch()
+
+
+# Every latched drill publisher made while a simulated node runs: unregistered when it
+# stops, even after a failed test, or the master would hand its last message (an
+# "abort") to every later test's node.
+_LATCHED: list[Any] = []
+
+
+def _unlatch() -> None:
+    while _LATCHED:
+        _LATCHED.pop().unregister()
 
 
 def _wait_ready(sim: SimBaxter, began: float) -> None:
@@ -228,6 +240,7 @@ class FaultTopic:
         self._publisher = rospy.Publisher(
             "/tandem_sim/fault", self._string, queue_size=1, latch=True
         )
+        _LATCHED.append(self._publisher)
 
     def send(self, fault: str) -> None:
         self._publisher.publish(self._string(data=fault))
@@ -250,6 +263,7 @@ class SimControls:
         self._enable = rospy.Publisher(
             "/robot/set_super_enable", std.Bool, queue_size=1, latch=True
         )
+        _LATCHED.extend((self._estop, self._stall, self._enable))
 
     def estop(self, pressed: bool) -> None:
         self._estop.publish(self._std.Bool(data=pressed))

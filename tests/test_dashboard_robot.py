@@ -94,6 +94,9 @@ def test_an_execution_moves_the_simulated_baxter_and_the_drawn_arm_follows(
         executor = execute_clicked(page, dashboard)
         drawn: list[list[float]] = []  # the drawn left arm, while the robot moves
         while not executor.done:
+            # A fault waits for the operator's Retry or Abort: said here, not waited on.
+            fault = dashboard.robot.fault
+            assert fault is None or not fault.visible, fault.content
             drawn.append(list(dashboard.bench.drawn_arms["left"]))
             offer = dashboard.execution.clicks.pending() if dashboard.execution.clicks else None
             if offer is not None:

@@ -74,13 +74,12 @@ def _moved(data: Path, count: int) -> Callable[[], bool]:
         if not (data / DB_NAME).exists():
             return False
         try:
-            store = SessionStore(data, read_only=True)
+            with SessionStore(data, read_only=True) as store:
+                sessions = store.list_sessions()
+                events = store.events(sessions[0].id) if sessions else []
         except StoreError:
-            # The run has created the file but not yet its tables.
+            # The run has created the file but not yet all its tables.
             return False
-        with store:
-            sessions = store.list_sessions()
-            events = store.events(sessions[0].id) if sessions else []
         return sum(e.kind == "actuation" for e in events) >= count
 
     return done
