@@ -198,11 +198,12 @@ class DeviceSpeakers:
         self.failed: str | None = None
         self._turn = threading.Lock()  # one line at a time
         self._stopped = threading.Event()
+        self._closed = False
 
     def play(self, samples: Samples, rate: int) -> None:
         """Plays `samples` to their end, or until `stop`; returns when done."""
         with self._turn:
-            if self.failed is not None:
+            if self.failed is not None or self._closed:
                 return
             self._stopped.clear()
             try:
@@ -243,6 +244,15 @@ class DeviceSpeakers:
     def stop(self) -> None:
         """The line being played ends now."""
         self._stopped.set()
+
+    def close(self, wait_s: float = 2.0) -> None:
+        """The line being played ends and no other is played; returns once its output
+        stream is closed (within `wait_s`): PortAudio restarted (or the process ending)
+        with a stream still playing in another thread waited on it for ever."""
+        self._closed = True
+        self._stopped.set()
+        if self._turn.acquire(timeout=wait_s):
+            self._turn.release()
 
 
 def _wait_either(done: threading.Event, stopped: threading.Event, limit_s: float) -> bool:

@@ -135,6 +135,8 @@ class VoiceAnswers:
         self.controls: ExecutionControls | None = None
         self._given_up: str | None = None
         self._told = voice.on_attempt
+        # Told when the execution ends (the microphone's speakers fall silent).
+        self.on_detach: list[Callable[[], None]] = []
         voice.on_attempt = self._attempted
         if isinstance(voice, DialogueVoice):
             voice.on_own_voice = self._own_voice
@@ -161,6 +163,8 @@ class VoiceAnswers:
         if isinstance(self.voice, DialogueVoice):
             self.voice.ear.on_heard = None
             self.voice.ear.close()
+        for closing in self.on_detach:
+            closing()
 
     def hold(self, held: bool) -> None:
         """The execution paused (True) or went on: a live ear takes no answer while

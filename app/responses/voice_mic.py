@@ -87,6 +87,11 @@ class MicSpeakers:
             self.device.stop()
         self.ear.robot_stopped(self.stream.now_s())
 
+    def close(self) -> None:
+        """The session is over: the line being said ends, and no other is played."""
+        if self.device is not None:
+            self.device.close()
+
 
 @dataclass(frozen=True)
 class MicDialogue:
@@ -143,6 +148,7 @@ class MicDialogue:
         voice = DialogueVoice(self.language, stream, ear, self.recognizer, robot, hooks)
         voice.wall_of = stream.wall_s
         answers = VoiceAnswers(voice, fallback, on_fallback, stops)
+        answers.on_detach.append(speakers.close)
 
         def lost(why: str) -> None:  # the ear's thread: the device went away
             answers.voice_ended(why)
