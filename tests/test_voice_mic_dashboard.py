@@ -10,14 +10,13 @@ the clicks answer the rest, and the session is stored.
 
 from __future__ import annotations
 
-import shutil
 import time
 from pathlib import Path
 
 import pytest
 
 pytest.importorskip("playwright.sync_api")
-from playwright.sync_api import Page, sync_playwright  # noqa: E402
+from playwright.sync_api import Browser, Page  # noqa: E402
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from app.execution.events import ExecutionEvent  # noqa: E402
@@ -29,7 +28,6 @@ from tests.test_dashboard import free_port, open_page, shot, wait_for  # noqa: E
 from tests.test_dashboard_speech import answer_by, planned_and_executing  # noqa: E402
 from tests.test_voice_mic import spoken  # noqa: E402
 
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 ENGLISH_DEFAULT = ROOT / "static" / "scenarios" / "default.toml"
 
 
@@ -70,48 +68,43 @@ def _robot_quiet(device: SoundServer) -> bool:
 
 
 def test_the_dashboards_microphone_hears_answers_and_survives_an_unplugged_device(
-    microphone: SoundServer, tmp_path: Path  # noqa: F811
+    browser: Browser, microphone: SoundServer, tmp_path: Path  # noqa: F811
 ) -> None:
-    if not Path(CHROMIUM).exists():
-        pytest.fail("chromium is missing: `make test` installs it (apt-get install chromium)")
     settings = DashboardSettings(workers=1, cache_dir=str(tmp_path / "cache"),
                                  data_dir=str(tmp_path / "data"), load_models=False,
                                  speak="local")  # fmt: skip
     dashboard = Dashboard("127.0.0.1", free_port(), str(ENGLISH_DEFAULT), settings)
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
-        page = open_page(browser, dashboard, "Answers by", height=1000)
-        try:
-            answer_by(page, dashboard, "microphone")
-            executor = planned_and_executing(page, dashboard)
-            assert microphone.recording_streams(), "the microphone opens with the execution"
-            speech = dashboard.speech
-            unplugged, was_listening = False, False
-            clicked: list[str] = []
-            lines_checked = 0
-            deadline = time.monotonic() + 240
-            while not executor.done and time.monotonic() < deadline:
-                listening = "Listening" in speech.listening.content
-                if not unplugged and listening and not was_listening:  # asked: answer
-                    wait_for(lambda: _robot_quiet(microphone), 20)
-                    time.sleep(0.4)
-                    microphone.play(spoken("yes"), "yes").wait(10)
-                was_listening = listening
-                if not unplugged and any(e.source == "voice" for e in _asked(executor)):
-                    microphone.unplug()
-                    unplugged = True
-                    page.get_by_text("The voice has ended", exact=False).first.wait_for()
-                    shot(page, "speech-microphone-ended")
-                if unplugged:
-                    lines_checked += _no_voice_in_the_wait_line(dashboard)
-                if unplugged or not listening:
-                    _click_pending(page, dashboard, clicked)
-                time.sleep(0.05)
-            assert executor.result == "goal", executor.events
-        finally:
-            page.close()
-            browser.close()
-            dashboard.close()
+    page = open_page(browser, dashboard, "Answers by", height=1000)
+    try:
+        answer_by(page, dashboard, "microphone")
+        executor = planned_and_executing(page, dashboard)
+        assert microphone.recording_streams(), "the microphone opens with the execution"
+        speech = dashboard.speech
+        unplugged, was_listening = False, False
+        clicked: list[str] = []
+        lines_checked = 0
+        deadline = time.monotonic() + 240
+        while not executor.done and time.monotonic() < deadline:
+            listening = "Listening" in speech.listening.content
+            if not unplugged and listening and not was_listening:  # asked: answer
+                wait_for(lambda: _robot_quiet(microphone), 20)
+                time.sleep(0.4)
+                microphone.play(spoken("yes"), "yes").wait(10)
+            was_listening = listening
+            if not unplugged and any(e.source == "voice" for e in _asked(executor)):
+                microphone.unplug()
+                unplugged = True
+                page.get_by_text("The voice has ended", exact=False).first.wait_for()
+                shot(page, "speech-microphone-ended")
+            if unplugged:
+                lines_checked += _no_voice_in_the_wait_line(dashboard)
+            if unplugged or not listening:
+                _click_pending(page, dashboard, clicked)
+            time.sleep(0.05)
+        assert executor.result == "goal", executor.events
+    finally:
+        page.close()
+        dashboard.close()
     assert lines_checked, "no question waited for a click after the device went away"
     asked = _asked(executor)
     assert asked[0].source == "voice" and asked[0].outcome == "yes", asked
