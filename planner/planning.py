@@ -17,21 +17,17 @@ from planner.plan.model import Plan
 from planner.scenario.loading import Scenario
 from planner.search.branch_planner import BranchPlanner, Problem, as_solved, ground_ahead
 from planner.search.cluster import check_address
+from planner.search.dag import DagNode, Progress
 from planner.search.errors import DeadEnd
-from planner.search.hcp import (
-    INLINE_SOLVE_S,
-    ConditionalPlanner,
-    DagNode,
-    PlannerSettings,
-    Progress,
-)
+from planner.search.hcp import INLINE_SOLVE_S, ConditionalPlanner, PlannerSettings
 from planner.search.hoped_planning import HopedPlanning
+from planner.search.motion_prefetch import motion_prefetch
 from planner.search.plan_building import build_plan, kind_and_action, number_states
 from planner.search.preprocessing import ProgramRequest, preprocessed
 from planner.search.solving import Engine
 from planner.search.symmetry import Symmetry
 from planner.talk import conversation
-from planner.vocabulary import Attach, State
+from planner.vocabulary import State
 
 if TYPE_CHECKING:
     from planner.feasibility.checks import BenchChecks
@@ -361,7 +357,7 @@ class _Planning:
             ahead=self.ahead,
         )
         checks = self.checks
-        prefetch = None if checks is None else _motion_prefetch(checks, self._first_branch_done)
+        prefetch = None if checks is None else motion_prefetch(checks, self._first_branch_done)
         planner = ConditionalPlanner(
             problem,
             self.scenario.goal_pairs(),
@@ -408,43 +404,3 @@ class _Planning:
 def _view(node_id: str, node: DagNode) -> conversation.NodeView:
     """A complete DAG's node as its plan node will read (`build_plan`)."""
     return (node_id, *kind_and_action(node), node.state)
-
-
-def _motion_prefetch(
-    checks: BenchChecks, first_branch_done: Callable[[], bool]
-) -> Callable[[list[DagNode]], None]:
-    """Starts the part-to-part motions of newly planned attach actions in the check
-    pool while planning goes on; `add_motions` finds them there once the plan is built.
-
-    Held back until the first branch exists (its planning comes first on a busy
-    machine). A motion starts where a reach path ends, which the reach decision
-    gives before the path is made (`BenchChecks.at`): planning never waits for one."""
-    from planner.feasibility.plan_motions import endpoints, slot_sites
-
-    backlog: list[DagNode] = []
-
-    def prefetch(planned: list[DagNode]) -> None:
-        if not checks.parallel:
-            return  # one process: motions are made when the plan is built
-        backlog.extend(n for n in planned if isinstance(n.action, Attach))
-        if not backlog or not first_branch_done():
-            return
-        attaches = [
-            (n, n.action, next(slot_sites(n.action, sorted(n.state))))
-            for n in backlog
-            if isinstance(n.action, Attach)  # (not any more: replanned after a dead end)
-        ]
-        backlog.clear()
-        # An attach ends at a slot's site, whose reach is asked of the pool: `endpoints`
-        # would otherwise check it here, in the planning loop. Until it is answered, the
-        # node waits to be told again.
-        checks.prefetch_sites(where for _, _, where in attaches)
-        moves = []
-        for node, action, where in attaches:
-            if checks.site_known(*where):
-                moves.append(endpoints(action, sorted(node.state), checks))
-            else:
-                backlog.append(node)
-        checks.prefetch_moves((arm, a, b) for arm, a, b in moves if a is not None and b)
-
-    return prefetch

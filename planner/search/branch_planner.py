@@ -11,7 +11,8 @@ from __future__ import annotations
 import multiprocessing as mp
 import threading
 import time
-from concurrent.futures import Future
+from collections.abc import Callable, Iterable
+from concurrent.futures import Future, wait
 from dataclasses import dataclass, replace
 
 from planner.search.encoding import FeasibilityContext
@@ -75,22 +76,54 @@ class BranchPlanner:
         self.problem = problem
         self.context = FeasibilityContext(lambda m, p: (m, p) in problem.reachable)
         self.solvers: dict[int, BranchSolver] = {}
+        self._aside: dict[int, Future[BranchSolver]] = {}  # grounding in threads
         # Grounds aside from now on: the first branch lists outcomes within
         # milliseconds of its first solve.
         self.step = StepProgram(problem.facts, self.context, problem.skip)
 
     def solver(self, horizon: int) -> BranchSolver:
         if horizon not in self.solvers:
-            self.solvers[horizon] = BranchSolver(
-                self.problem.facts,
-                horizon,
-                self.context,
-                skip=self.problem.skip,
-                history_free=self.problem.history_free,
-                program=dict(self.problem.programs).get(horizon),
-                step=self.step,
-            )
+            aside = self._aside.pop(horizon, None)
+            if aside is None:
+                self.solvers[horizon] = self._ground(horizon, self.context)
+            else:
+                self.solvers[horizon] = made = aside.result()
+                self.context.calls += made.context.calls  # counted where it is used
         return self.solvers[horizon]
+
+    def ground_aside(self, horizons: Iterable[int]) -> None:
+        """Grounds the solvers of `horizons` in threads of their own, side by side
+        (clingo grounds outside the GIL); `solver` waits for them. (No process may be
+        forked meanwhile: `settle`.)"""
+        for horizon in horizons:
+            if horizon in self.solvers or horizon in self._aside:
+                continue
+            made: Future[BranchSolver] = Future()
+            self._aside[horizon] = made
+            # A context of its own: two threads must not count calls into one.
+            context = FeasibilityContext(self.context.predicate)
+            threading.Thread(
+                target=_make,
+                args=(made, lambda h, c=context: self._ground(h, c), horizon),
+                name="tandem-ground",
+                daemon=True,
+            ).start()
+
+    def settle(self) -> None:
+        """Waits until no thread of this planner grounds."""
+        wait([*self._aside.values()])
+        self.step.settle()
+
+    def _ground(self, horizon: int, context: FeasibilityContext) -> BranchSolver:
+        return BranchSolver(
+            self.problem.facts,
+            horizon,
+            context,
+            skip=self.problem.skip,
+            history_free=self.problem.history_free,
+            program=dict(self.problem.programs).get(horizon),
+            step=self.step,
+        )
 
     def branch(self, start: State, forbid: frozenset[str]) -> BranchResult:
         t0 = time.perf_counter()
@@ -172,13 +205,28 @@ def ground_ahead(problem: Problem) -> Future[BranchPlanner]:
     return ready
 
 
+def _make(made: Future[BranchSolver], ground: Callable[[int], BranchSolver], horizon: int) -> None:
+    try:
+        made.set_result(ground(horizon))
+    except BaseException as err:  # noqa: BLE001 - raised again by `solver`
+        made.set_exception(err)
+
+
+_worker_problem: Problem | None = None
+
+
 def start_worker(problem: Problem) -> None:
-    """A worker process's start: its branch planner, grounded when first asked."""
-    global _worker
-    _worker = BranchPlanner(problem)
+    """A worker process's start: its branch planner is made at its first branch. (Large
+    benches fork their workers before planning starts, and the first branch is planned
+    without them: grounding at once, they took the cores from it.)"""
+    global _worker, _worker_problem
+    _worker, _worker_problem = None, problem
 
 
 def run_branch(start: State, forbid: frozenset[str]) -> BranchResult:
     """A branch solved in a worker process (`start_worker`)."""
-    assert _worker is not None
+    global _worker
+    if _worker is None:
+        assert _worker_problem is not None
+        _worker = BranchPlanner(_worker_problem)
     return _worker.branch(start, forbid)

@@ -26,10 +26,14 @@ from dataclasses import dataclass, field
 
 from planner.plan import walks
 from planner.search.branch_planner import BranchPlanner, BranchResult, Problem, as_solved
+
+# (Also named here, where the planner's users have always found them.)
+from planner.search.dag import DagNode as DagNode
+from planner.search.dag import Progress as Progress
 from planner.search.errors import DeadEnd
 from planner.search.solving import Engine, Solve, Solving
 from planner.search.symmetry import Symmetry
-from planner.vocabulary import Action, State
+from planner.vocabulary import State
 
 # CPU seconds of planning done in the coordinator's own process before worker
 # processes start. Forking them and grounding the domain once more in each costs
@@ -47,29 +51,7 @@ SWITCH_MIN_OPEN = 100
 TELL_EVERY_S = 0.1
 
 
-@dataclass
-class DagNode:
-    state: State
-    action: Action | None = None
-    children: list[tuple[str | None, State]] = field(default_factory=list)
-    expected: str | None = None  # the outcome the sequential plan hoped for
-    forbidden: set[str] = field(default_factory=set)  # action texts banned here
-    goal: bool = False
-
-    @property
-    def kind(self) -> str | None:
-        return None if self.action is None else self.action.kind
-
-
-@dataclass
-class Progress:
-    done: int
-    open: int
-    solves: int
-    elapsed_s: float
-
-
-# --- coordinator -------------------------------------------------------------
+# --- coordinator (its nodes and progress: `planner.search.dag`) ---------------
 
 
 @dataclass
@@ -226,6 +208,7 @@ class ConditionalPlanner:
             and self.workers > 1
             and time.process_time() - run.cpu0 >= self.settings.inline_s
             and run.open >= SWITCH_MIN_OPEN
+            and (run.first_done or not self.settings.fork_at_start)
         ):
             # A long plan: on to the worker processes (what was solved inline
             # is done, and is integrated as if solved there).

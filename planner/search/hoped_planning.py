@@ -20,7 +20,8 @@ from __future__ import annotations
 import threading
 from concurrent.futures import Future
 
-from planner.search.hcp import ConditionalPlanner, DagNode
+from planner.search.dag import DagNode
+from planner.search.hcp import ConditionalPlanner
 from planner.vocabulary import State
 
 

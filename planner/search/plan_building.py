@@ -16,7 +16,7 @@ from planner.talk import phrases
 from planner.vocabulary import Action, Communication, parse_term
 
 if TYPE_CHECKING:
-    from planner.search.hcp import DagNode
+    from planner.search.dag import DagNode
     from planner.vocabulary import State
 
 

@@ -107,6 +107,10 @@ class Solving:
         ahead = self._grounded_ahead()
         self.grounded_ahead = ahead is not None
         planner = self._local = ahead or BranchPlanner(self.problem)
+        # The horizons every branch is first solved with, ground side by side.
+        horizon = self.problem.horizon
+        short = self.problem.short_first and horizon > 1
+        planner.ground_aside([horizon - 1, horizon] if short else [horizon])
 
         def inline(state: State, forbid: frozenset[str]) -> Future[BranchResult]:
             fut: Future[BranchResult] = Future()
@@ -147,7 +151,7 @@ class Solving:
             if self.ahead is not None:
                 wait([self.ahead])
             if self._local is not None:
-                self._local.step.settle()
+                self._local.settle()
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers,
                 mp_context=mp.get_context("fork"),
@@ -158,9 +162,9 @@ class Solving:
 
     def shutdown(self) -> None:
         if self._local is not None:
-            # Its one-step program grounds in a thread of its own: clingo must not be
-            # inside it when the process exits (a plan can fail within milliseconds).
-            self._local.step.settle()
+            # Its programs ground in threads of their own: clingo must not be inside
+            # one when the process exits (a plan can fail within milliseconds).
+            self._local.settle()
         if self.engine is not None:
             self.engine.close()
         if self._pool is not None:
