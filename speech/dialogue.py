@@ -31,9 +31,11 @@ answer is awaited (`Ear.answer`), and is then judged:
   is taken, since stopping is always safe, but only where the robot's voice is
   cancelled: without the canceller the window holds the robot's own words (its
   closing line, 테이블이 완성됐어요…, was once heard as 멈춰 and paused the
-  run). An utterance that is both a command and an answer is the command
-  (`speech.commands` says why). While the ear is `held` (the execution is
-  paused) no answer is taken and the no-speech time does not run.
+  run). A "continue", and a stop while an answer is awaited, is checked
+  against the answers (`Commands.confirms`): an answer the command grammar
+  forced into a command ("no" as "resume") is not one; a stop mid-motion is
+  taken at once. While the ear is `held` (the execution is paused) no answer
+  is taken and the no-speech time does not run.
 
 Measured on espeak-ng's voices (12 each: variants, speeds, pitches, half
 with noise). Korean (vosk): 멈춰 9/12, 잠깐 9/12, 잠깐만 6/12, 정지 7/12 taken
@@ -149,6 +151,7 @@ class _Utterance:
     own: bool
     commands: Decoding | None
     answers: Decoding | None
+    blocks: list[Samples] = field(default_factory=list)  # its audio (`Commands.confirms`)
 
 
 class Ear:
@@ -365,6 +368,7 @@ class Ear:
 
     def _feed(self, block: Samples) -> None:
         assert self._current is not None
+        self._current.blocks.append(block)
         for decoding in (self._current.commands, self._current.answers):
             if decoding is not None:
                 decoding.feed(block)
@@ -407,6 +411,12 @@ class Ear:
         # voice is cancelled: otherwise the window holds the robot's own words.
         if command is None or (current.own and (command == "continue" or self.canceller is None)):
             return None
+        assert self.commands is not None
+        # Checked against the answers while one is awaited, and a "continue" always; a
+        # stop mid-motion is not (it only pauses, and a check would delay it).
+        checked = command == "continue" or current.answers is not None
+        if checked and not self.commands.confirms(command, np.concatenate(current.blocks)):
+            return None  # an answer the command grammar forced into a command
         return Hearing(current.start_s, end_s, heard.words, heard.confidence, command=command)
 
     def _judged(self, current: _Utterance, too_long: bool, end_s: float) -> Hearing:
