@@ -7,13 +7,16 @@ from dataclasses import dataclass, field
 from planner.vocabulary import Action, State
 
 
-@dataclass
+@dataclass(slots=True)
 class DagNode:
+    """A state of the DAG and what is planned there. (Slotted, and with nothing banned
+    sharing one empty set: a large plan has a hundred thousand of them.)"""
+
     state: State
     action: Action | None = None
     children: list[tuple[str | None, State]] = field(default_factory=list)
     expected: str | None = None  # the outcome the sequential plan hoped for
-    forbidden: set[str] = field(default_factory=set)  # action texts banned here
+    forbidden: frozenset[str] = frozenset()  # action texts banned here
     goal: bool = False
 
     @property

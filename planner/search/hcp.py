@@ -252,7 +252,7 @@ class ConditionalPlanner:
             if node is None or node.action is not None or node.goal or state in asked:
                 continue
             asked.add(state)
-            fut = run.solving.ask(run.executor, state, frozenset(node.forbidden))
+            fut = run.solving.ask(run.executor, state, node.forbidden)
             self.sent_away += 0 if run.inline else 1
             run.pending[fut] = (state, run.integrated)
 
@@ -358,7 +358,7 @@ class ConditionalPlanner:
     def _unplan(self, state: State) -> None:
         """Bans the action planned at `state` and undoes it there, to plan it again."""
         node = self.nodes[state]
-        node.forbidden.add(str(node.action))
+        node.forbidden |= {str(node.action)}
         for _, succ in node.children:
             self.parents[succ].discard(state)
         node.action, node.children, node.expected = None, [], None
