@@ -129,7 +129,17 @@ def sim_baxter(
 _LATCHED: list[Any] = []
 
 
+_LAST_WORDS: list[FaultTopic] = []
+
+
 def _unlatch() -> None:
+    # A harmless drill last: should a later node still be handed the latched message
+    # (rospy keeps it with the topic while any publisher of it lives in this process),
+    # it is "unmute", not "abort".
+    while _LAST_WORDS:
+        topic = _LAST_WORDS.pop()
+        if topic._publisher.impl is not None:
+            topic.send("unmute")
     while _LATCHED:
         _LATCHED.pop().unregister()
 
@@ -241,11 +251,13 @@ class FaultTopic:
             "/tandem_sim/fault", self._string, queue_size=1, latch=True
         )
         _LATCHED.append(self._publisher)
+        _LAST_WORDS.append(self)
 
     def send(self, fault: str) -> None:
         self._publisher.publish(self._string(data=fault))
 
     def close(self) -> None:
+        self.send("unmute")  # the latched message a later node is handed, if any
         self._publisher.unregister()
 
 
