@@ -32,6 +32,7 @@ from speech.voice_activity import EndOfSpeech
 # microphone's clock, the speakers begin to sound.
 PlayingListener = Callable[[Samples, float], None]
 INPUT_BUFFER_S = 0.2  # the input's buffer (see `MicrophoneStream._open`)
+WRITE_S = 0.05  # the robot's line is written to the speakers in pieces this long
 EARLY_S = 0.15  # how much earlier than the speakers' start a line may reach the microphone
 OPEN: weakref.WeakSet[MicrophoneStream] = weakref.WeakSet()  # streams not yet closed
 
@@ -213,24 +214,16 @@ class DeviceSpeakers:
 
     def _play(self, line: Samples, rate: int) -> None:
         sd = require_device("output")
-        done = threading.Event()
-        position = [0]
         # Silence after the line: the last buffers were dropped when the stream closed.
         samples = np.concatenate([line, np.zeros(int(0.5 * rate), dtype=np.int16)])
-
-        def fill(out: Any, frames: int, _time: Any, _status: Any) -> None:
-            start = position[0]
-            chunk = samples[start : start + frames]
-            out[: len(chunk), 0] = chunk
-            out[len(chunk) :, 0] = 0
-            position[0] = start + frames
-            if start + frames >= len(samples):
-                raise sd.CallbackStop
-
-        # A buffer of 0.3 s: a smaller one ran dry on a loaded machine (a callback late),
+        # Written, not played from a callback: PortAudio's callback thread, aborted on a
+        # "stop", once failed to join ('pthread_join failed'), and a test run on a
+        # machine at load 15 crashed in native code (not pinned down); a written stream
+        # has no thread. A buffer of 0.3 s: a smaller one ran dry on a loaded machine,
         # and each gap made the line sound longer than its audio.
-        with sd.OutputStream(samplerate=rate, channels=1, dtype="int16", callback=fill,
-                             latency=0.3, finished_callback=done.set) as stream:  # fmt: skip
+        stream = sd.OutputStream(samplerate=rate, channels=1, dtype="int16", latency=0.3)
+        try:
+            stream.start()
             latency = float(stream.latency)
             # Heard from a little before now (the stream started a moment ago, and the
             # sound server may pass it on at once) to its end after the output latency
@@ -238,8 +231,15 @@ class DeviceSpeakers:
             lead = np.zeros(int((EARLY_S + latency) * RATE), dtype=np.int16)
             heard = np.concatenate([lead, resample(line, rate, RATE)])
             self.on_playing(heard, self.clock() - EARLY_S)
-            if not _wait_either(done, self._stopped, len(samples) / rate + latency + 0.5):
-                stream.abort()
+            step = int(WRITE_S * rate)
+            for start in range(0, len(samples), step):
+                if self._stopped.is_set():
+                    stream.abort()  # what is buffered is dropped: silent at once
+                    return
+                stream.write(samples[start : start + step].reshape(-1, 1))
+            stream.stop()  # returns once the buffered audio has been played
+        finally:
+            stream.close()
 
     def stop(self) -> None:
         """The line being played ends now."""
@@ -253,14 +253,3 @@ class DeviceSpeakers:
         self._stopped.set()
         if self._turn.acquire(timeout=wait_s):
             self._turn.release()
-
-
-def _wait_either(done: threading.Event, stopped: threading.Event, limit_s: float) -> bool:
-    """Waits for `done` (True) or `stopped` / `limit_s` (False)."""
-    deadline = time.monotonic() + limit_s
-    while time.monotonic() < deadline:
-        if done.wait(0.02):
-            return True
-        if stopped.is_set():
-            return False
-    return False
