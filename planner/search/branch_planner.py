@@ -125,10 +125,15 @@ class BranchPlanner:
             step=self.step,
         )
 
-    def branch(self, start: State, forbid: frozenset[str]) -> BranchResult:
+    def branch(
+        self, start: State, forbid: frozenset[str], *, horizon_first: bool = False
+    ) -> BranchResult:
+        """The branch from `start`, with the `forbid`den actions banned there.
+        `horizon_first`: the horizon's plan is looked for before the one a step short
+        (`_sequential`): cheaper where most milestones take the whole horizon."""
         t0 = time.perf_counter()
         calls0 = self.context.calls
-        found, horizon = self._sequential(start, forbid)
+        found, horizon = self._sequential(start, forbid, horizon_first)
         planned = None
         if found is not None:
             solver = self.solver(self.problem.horizon)
@@ -154,7 +159,7 @@ class BranchPlanner:
         )
 
     def _sequential(
-        self, start: State, forbid: frozenset[str]
+        self, start: State, forbid: frozenset[str], horizon_first: bool = False
     ) -> tuple[SequentialPlan | None, int]:
         """An optimal plan from `start` to its next milestone, and the horizon it is
         optimal for.
@@ -166,17 +171,34 @@ class BranchPlanner:
         plans are looked for again in the horizon's program. A branch that needs
         more steps than the horizon is retried with longer ones before it is
         called a dead end.
+
+        `horizon_first` gives the same answer: the horizon's program holds every plan
+        a step short, so where its optimal plan is longer, or costs more than its
+        steps, or there is none, no plan a step short costs its steps alone, and the
+        search above would come to the horizon's plan too; the plan a step short is
+        looked for only where it may win.
         """
         horizon = self.problem.horizon
+        known: SequentialPlan | None = None  # the horizon's plan, if looked for already
+        looked = False
         if self.problem.short_first and horizon > 1:
-            short = self.solver(horizon - 1).plan(start, forbid)
-            if short is not None and short.steps_cost_only:
-                return short, horizon
+            if horizon_first:
+                known, looked = self.solver(horizon).plan(start, forbid), True
+            if not looked or (known is not None and _steps_alone(known, horizon - 1)):
+                short = self.solver(horizon - 1).plan(start, forbid)
+                if short is not None and short.steps_cost_only:
+                    return short, horizon
         while True:
-            found = self.solver(horizon).plan(start, forbid)
+            found = known if looked else self.solver(horizon).plan(start, forbid)
+            looked = False
             if found is not None or horizon * 2 > self.problem.horizon * MAX_HORIZON_FACTOR:
                 return found, horizon
             horizon *= 2
+
+
+def _steps_alone(plan: SequentialPlan, steps: int) -> bool:
+    """Whether `plan` takes at most `steps` steps and costs nothing beyond them."""
+    return plan.steps_cost_only and len(plan.steps) <= steps
 
 
 def as_solved(problem: Problem, workers: int, *, engine: bool = False) -> Problem:

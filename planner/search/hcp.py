@@ -192,6 +192,7 @@ class ConditionalPlanner:
             # first submit forks them all.)
             solving.start_pool().submit(int)
         executor = solving.inline() if inline else solving.executor()
+        solving.horizon_first = self.settings.fork_at_start  # until the first branch
         return _Build(root, t0, solving, inline, executor, deque([root]))
 
     def _step(self, run: _Build) -> bool:
@@ -275,6 +276,7 @@ class ConditionalPlanner:
         run.queue.extend(later)
         if not run.first_done and self._expected_branch_done(run.root):
             run.first_done = True
+            run.solving.horizon_first = False
             if self.on_first_branch:
                 self.on_first_branch(self.nodes)
         self.integrate_s += time.perf_counter() - t_result
