@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from planner.audit import fluents
 from planner.audit.actions import CONVERSATION, SimAction, parse_sim_action
 from planner.audit.facts import Facts, term_order
 from planner.audit.fluents import HUMAN_FREE, HUMAN_HOLDING, TASKS, SimFluent, SimState, fluent_str
@@ -18,46 +19,26 @@ from planner.audit.table import PROPERTIES, PlannedTable
 # ---------------------------------------------------------------- semantics
 
 
-class _Hands:
-    """What a state says about its parts, read once: a node's checks ask it many
-    times (U30: 7.7 million fluents looked at for `is_attached` alone)."""
-
-    def __init__(self, s: SimState) -> None:
-        self.state = s
-        self.onto: dict[str, list[tuple[str, str]]] = {}  # part -> (part, point) below it
-        self.pairs: set[tuple[str, str]] = set()  # (part, onto) attached
-        self.held: dict[str, list[str]] = {}  # manipulator -> parts it holds
-        self.in_hand: set[str] = set()  # parts some manipulator holds
-        for x in s:
-            if x[0] == "attached":
-                self.onto.setdefault(x[1], []).append((x[2], x[3]))
-                self.pairs.add((x[1], x[2]))
-            elif x[0] == "holding":
-                self.held.setdefault(x[1], []).append(x[2])
-                self.in_hand.add(x[2])
-
-
 class Domain:
     """Derived notions, preconditions and outcomes over a state (docs/domain.md)."""
 
     def __init__(self, facts: Facts) -> None:
         self.f = facts
         self.table = PlannedTable(facts) if facts.planned else None
-        self._hands = _Hands(frozenset())
+        self._hands = fluents.StateParts(frozenset())
         self._actions: dict[str, SimAction | str] = {}
 
     def action(self, text: str) -> SimAction | str:
-        """`parse_sim_action` of `text`, made once per text: a plan names far fewer
-        actions than it has nodes."""
+        """`parse_sim_action` of `text`, once per text (a plan has few actions)."""
         found = self._actions.get(text)
         if found is None:
             found = self._actions[text] = parse_sim_action(text, self.f)
         return found
 
-    def hands(self, s: SimState) -> _Hands:
+    def hands(self, s: SimState) -> fluents.StateParts:
         """What `s` says about its parts (the last state asked about is kept)."""
         if self._hands.state is not s:
-            self._hands = _Hands(s)
+            self._hands = fluents.StateParts(s)
         return self._hands
 
     def join_failures(self, s: SimState, p: str, q: str) -> list[str]:
