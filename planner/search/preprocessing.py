@@ -94,10 +94,15 @@ def _reason(stderr: str) -> str:
 
 
 def _env() -> dict[str, str]:
-    """The child's environment: this package importable, wherever it was found."""
+    """The child's environment: this package importable, wherever it was found, and
+    its C output buffered. clingo writes the program a token at a time through C's
+    stdout, which PYTHONUNBUFFERED leaves unbuffered: 2.3 million writes for U30's
+    program a step short, 2.4-2.5 s of which 1.5-1.7 s in the kernel, against
+    0.67 s buffered (the same program)."""
     root = str(Path(__file__).resolve().parents[2])
     path = os.environ.get("PYTHONPATH")
-    return {**os.environ, "PYTHONPATH": root if not path else f"{root}{os.pathsep}{path}"}
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    return {**env, "PYTHONPATH": root if not path else f"{root}{os.pathsep}{path}"}
 
 
 class _Preprocess(clingo.Application):
