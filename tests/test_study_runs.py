@@ -83,7 +83,7 @@ def test_the_figure_names_conditions_by_what_varies() -> None:
 def test_a_voice_participants_speech_is_timed_on_the_sessions_clock(tmp_path: Path) -> None:
     """A study's voice condition keeps the human's speech as human activity (source
     voice), on the session's simulated clock within each question's wait."""
-    from app.cli.study import _run_job
+    from app.study.engine import run_job
     from app.sessions.metrics import session_metrics
     from app.sessions.studies import load_study
 
@@ -94,7 +94,7 @@ def test_a_voice_participants_speech_is_timed_on_the_sessions_clock(tmp_path: Pa
         encoding="utf-8",
     )
     job = jobs(load_study(path))[0]
-    run = _run_job(job)
+    run = run_job(job)
     assert run.result == "goal"
     speech = [e for e in run.events if e.kind == HUMAN and e.source == "voice"]
     assert speech

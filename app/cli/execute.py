@@ -7,7 +7,6 @@ import secrets
 import signal
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
@@ -16,10 +15,9 @@ from app.cli.exit_codes import BAD_INPUT, BadInput
 from app.cli.robot_args import register_robot_args, robot_from_args
 from app.cli.voice_args import voice_from_args
 from app.execution.events import REPAIR, Clock, ExecutionEvent, OutcomeSource, Result
-from app.execution.repair import Repairer
-from app.execution.retargeting import retargeter_for
 from app.execution.timing import SimulatedTimeline, Timeline, WallTimeline
-from app.execution.walker import Executor, Listener, Narrator
+from app.execution.walker import Executor
+from app.runner.session import Answering, Running, SessionRunner, StoredSession
 from app.sessions.store import SessionStore
 from app.sources.outcomes import (
     ConsoleSource,
@@ -172,16 +170,6 @@ def _print_event(event: ExecutionEvent) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
-@dataclass
-class _Answers:
-    """Who answers this run's branching nodes, and what goes with them."""
-
-    source: OutcomeSource
-    narrator: Narrator | None = None
-    listeners: list[Listener] = field(default_factory=list)
-    close: Callable[[], None] = lambda: None
-
-
 def _check(args: argparse.Namespace) -> tuple[bool, bool]:
     """The options that go together, checked before planning; (by voice, seeded)."""
     if args.step_delay < 0:
@@ -205,12 +193,12 @@ def _answers(
     scenario: Scenario | None,
     seed: int | None,
     calibration: CameraIntrinsics | None,
-) -> _Answers:
+) -> Answering:
     if args.responses.startswith("voice:"):
         voice = voice_from_args(args, plan, seed, scenario.human if scenario else None)
-        return _Answers(voice.source, narrator=voice.robot)
+        return Answering(voice.source, narrator=voice.robot)
     if not args.responses.startswith("camera:"):
-        return _Answers(make_source(args.responses, seed, plan))
+        return Answering(make_source(args.responses, seed, plan))
     if scenario is None:
         raise BadInput("--responses camera:... needs the scenario file, not a plan file")
     # Imported here: the simulated camera loads pybullet, which other runs never need.
@@ -224,8 +212,7 @@ def _answers(
         )  # fmt: skip
     except SourceError as err:
         raise BadInput(f"--responses {args.responses}: {err}") from err
-    source = FallbackSource(camera.source, RandomSource(seed), on_fallback=_camera_fallback(plan))
-    return _Answers(source, listeners=list(camera.listeners), close=camera.close)
+    return camera.answering(seed, _camera_fallback(plan))
 
 
 def _timeline(args: argparse.Namespace, seed: int | None, scenario: Scenario | None) -> Timeline:
@@ -268,38 +255,23 @@ def run(args: argparse.Namespace) -> int:
         seed = secrets.randbelow(2**31)
         print(f"seed {seed}", file=sys.stderr)
     # The robot is reached before anything starts: if it is not there, nothing is stored.
-    retarget = retargeter_for(scenario, plan)
-    robot = robot_from_args(args, retarget.to_start if retarget is not None else None)
+    runner = SessionRunner(plan, scenario)
+    robot = robot_from_args(args, runner.to_start)
     answers = _answers(args, plan, scenario, seed, calibration)
     note = args.note
     if seeded:
         note = f"seed {seed}" + (f"; {note}" if note else "")
-    timeline = _timeline(args, seed, scenario)
+    running = Running(_timeline(args, seed, scenario), robot, step_delay=args.step_delay)
     with SessionStore(args.data_dir) as store:
-        session_id = store.start(plan, note=note, clock=_clock(args, timeline))
-        print(f"session {session_id}", flush=True)
-        # A surprise (a scripted `!` line) plans again from what was observed.
-        repairing = Repairer(scenario, store.add_plan).repair if scenario is not None else None
-        executor = Executor(
-            plan,
-            answers.source,
-            [store.recorder(session_id), *answers.listeners, _print_event],
-            step_delay=args.step_delay,
-            narrator=answers.narrator,
-            repairing=repairing,
-            # The slot the human used moves later motions: the motion planner re-targets them.
-            retarget=retarget,
-            timeline=timeline,
-            robot=robot,
-        )
+        session = StoredSession(store, runner, note=note, clock=_clock(args, running.timeline))
+        print(f"session {session.id}", flush=True)
+        executor = session.executor(answers, [_print_event], running)
         result = _run_until_stopped(executor)
-        # A simulated session ends with its last event, not when the program did.
-        ended = max((e.end or 0.0 for e in executor.events), default=None)
-        store.finish(session_id, result, ended if timeline.clock == "simulated" else None)
+        session.finish(executor, result)
     answers.close()
     if robot is not None:
         robot.link.close()
-    print(f"session {session_id}: {result} after {len(executor.events)} steps")
+    print(f"session {session.id}: {result} after {len(executor.events)} steps")
     if robot is not None and robot.refused is not None and result != "goal":
         return BAD_INPUT  # the robot refused to move (not enabled): the operator must act
     return 0 if result == "goal" else 1

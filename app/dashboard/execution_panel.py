@@ -32,11 +32,10 @@ from app.dashboard.stage import (
 from app.dashboard.tree_svg import Step, strip_svg
 from app.dashboard.wait_words import CameraNews, Waiting, wait_line
 from app.execution.events import REPAIR, ExecutionEvent, OutcomeSource, is_step
-from app.execution.repair import Repairer
-from app.execution.retargeting import retargeter_for
 from app.execution.robot_drive import RobotDriver, ToStart
 from app.execution.timing import WallTimeline
 from app.execution.walker import Executor, Listener, Narrator
+from app.runner.session import Answering, Running, SessionRunner, StoredSession
 from app.sessions.database import StoreError
 from app.sessions.store import SessionStore
 from app.sources.outcomes import ClickSource, FallbackSource, Offer
@@ -85,7 +84,7 @@ class ExecutionPanel:
         self._finisher: threading.Thread | None = None
         self.executor: Executor | None = None
         self.clicks: ClickSource | None = None
-        self.session_id: int | None = None
+        self.session: StoredSession | None = None  # the last execution's
         self.camera: CameraAnswers | None = None  # when set, it answers sensing nodes
         self._answer_buttons: list[Any] = []
         self._preparing = False
@@ -144,6 +143,11 @@ class ExecutionPanel:
         return self.executor is not None and not self.executor.done
 
     @property
+    def session_id(self) -> int | None:
+        """The stored session of the last execution started (None: none yet)."""
+        return self.session.id if self.session is not None else None
+
+    @property
     def preparing(self) -> bool:
         """Between a start and its execution running (or refused)."""
         return self._preparing
@@ -191,40 +195,34 @@ class ExecutionPanel:
             camera, listeners = self.camera.for_execution(plan, clicks)
             source = FallbackSource(camera, source)
             note = f"dashboard, camera {self.camera.name}"
+        runner = SessionRunner(plan, self.stage.current_scenario())
         try:
             # Refuse rather than run unrecorded: the session row is written first.
-            session_id = self.store.start(plan, note=note, clock="wall")
+            session = StoredSession(self.store, runner, note=note, clock="wall")
         except StoreError as err:
             self.refuse_executions(str(err))
             refuse(client, str(err))
             return
-        self.session_id = session_id
-        scenario = self.stage.current_scenario()  # a surprise plans again from it
+        self.session = session
         self.clicks = clicks
         self._log, self._steps = [], []
         self.log.content = ""
-        retarget = retargeter_for(scenario, plan)
-        to_start = retarget.to_start if retarget is not None else None
-        self.executor = Executor(
-            plan,
-            source,
-            [self.store.recorder(session_id), self._on_event, *listeners],
-            step_delay=float(self.speed.value),
-            narrator=narrator,
-            repairing=Repairer(scenario, self.store.add_plan).repair if scenario else None,
-            retarget=retarget,
-            robot=self.robot.driver(to_start) if self.robot is not None else None,
+        running = Running(
             # A person watches and answers: every step takes its real time, a drawn
             # motion as long as its animation plays.
-            timeline=WallTimeline(),
+            WallTimeline(),
+            self.robot.driver(runner.to_start) if self.robot is not None else None,
+            step_delay=float(self.speed.value),
             player=self._play_motion,
         )
+        answering = Answering(source, narrator, listeners)
+        self.executor = session.executor(answering, [self._on_event], running)
         clicks.slots = self.executor  # a humanAttachingWhere offers every free slot
         for button in (self.pause_button, self.step_button, self.abort_button):
             button.disabled = False
         self.notice.content = ""
-        self.status.content = f"**Running** session {session_id}."
-        self.events.publish(ExecutionStarted(session_id))
+        self.status.content = f"**Running** session {session.id}."
+        self.events.publish(ExecutionStarted(session.id))
         self.executor.start()
         self._finisher = threading.Thread(target=self._finish, args=(self.executor,), daemon=True)
         self._finisher.start()
@@ -239,9 +237,9 @@ class ExecutionPanel:
             result = "interrupted"
             self.notice.content = f"**Execution stopped:** {executor.error}"
         session_id = self.session_id
-        if session_id is not None and result is not None:
+        if self.session is not None and result is not None:
             try:
-                self.store.finish(session_id, result)
+                self.session.finish(executor, result)
             except StoreError as err:
                 self.refuse_executions(str(err))
         self.operator.release()

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 from app.execution.events import ExecutionEvent, OutcomeSource
 from app.responses.sim_camera import open_sim_camera, sim_camera
+from app.runner.session import Answering
 from app.sim.hands import PacedHands
 from app.sim.human import DirectedHuman, SimulatedHuman, SimulatedWorld
 from app.sources.bench_layout import bench_layout
@@ -33,6 +34,7 @@ from app.sources.camera_feed import PulledFeed
 from app.sources.camera_human import HumanActionWatch
 from app.sources.camera_input import CameraInput, open_real_camera
 from app.sources.live_camera import LiveCamera, live_source
+from app.sources.outcomes import FallbackSource, RandomSource
 from perception.frames import FrameSource, SourceError, WebcamSource
 from perception.intrinsics import CameraIntrinsics
 from perception.pipeline import BenchPerception
@@ -77,6 +79,14 @@ class CameraResponses:
             self.frames.close()
         if self.human is not None and self.human.world.hands is not None:
             self.human.world.hands.close()
+
+    def answering(
+        self, seed: int | None, on_fallback: Callable[[str, str], None] | None = None
+    ) -> Answering:
+        """A session's answers: the camera's, a seeded choice where it has none (a
+        question, or a sensing node it did not see); `on_fallback` is told which."""
+        source = FallbackSource(self.source, RandomSource(seed), on_fallback=on_fallback)
+        return Answering(source, listeners=tuple(self.listeners), close=self.close)
 
 
 def watched(

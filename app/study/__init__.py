@@ -1,0 +1,2 @@
+"""Studies: simulated participants over conditions (`engine.py`) and their tables
+and figure (`results.py`)."""
