@@ -40,16 +40,12 @@ from typing import Literal
 
 from app.execution.events import OutcomeSource
 from app.execution.narration import LineListener, RobotVoice
-from app.responses.voice_answers import (
-    DEFAULT_TIMES,
-    VoiceAnswers,
-    VoiceResponses,
-    human_script,
-)
+from app.responses.voice_answers import VoiceResponses, human_script
 from app.responses.voice_mic import MicDialogue
 from app.responses.voice_room import LiveDialogue
 from app.sim.speaker import SimulatedSpeaker
 from app.sources.voice import AttemptListener, ListeningListener, VoiceHooks, VoiceSource
+from app.sources.voice_answers import DEFAULT_TIMES, VoiceAnswers
 from planner.scenario.sections import Human
 from speech.dialogue import DialogueTimes
 from speech.languages import language

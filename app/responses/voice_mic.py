@@ -35,15 +35,10 @@ import numpy as np
 
 from app.execution.events import OutcomeSource
 from app.execution.narration import Line, LineListener, RobotVoice
-from app.responses.voice_answers import (
-    DEFAULT_TIMES,
-    NO_HOOKS,
-    DialogueVoice,
-    VoiceAnswers,
-    VoiceResponses,
-)
+from app.responses.voice_answers import VoiceResponses
 from app.sources.stop_listener import StopListener
 from app.sources.voice import VoiceHooks
+from app.sources.voice_answers import DEFAULT_TIMES, NO_HOOKS, DialogueVoice, VoiceAnswers
 from speech.audio import RATE, read_wav, resample
 from speech.dialogue import Commands, DialogueTimes, Ear
 from speech.languages import Language

@@ -15,17 +15,11 @@ from pathlib import Path
 
 from app.execution.events import OutcomeSource
 from app.execution.narration import Line, LineListener, RobotVoice
-from app.responses.voice_answers import (
-    DEFAULT_TIMES,
-    NO_HOOKS,
-    DialogueVoice,
-    VoiceAnswers,
-    VoiceResponses,
-    human_script,
-)
+from app.responses.voice_answers import VoiceResponses, human_script
 from app.sim.speaker import SimulatedSpeaker
 from app.sources.stop_listener import StopListener
 from app.sources.voice import VoiceHooks
+from app.sources.voice_answers import DEFAULT_TIMES, NO_HOOKS, DialogueVoice, VoiceAnswers
 from speech.audio import RATE, read_wav, resample
 from speech.dialogue import BLOCK_S, COMMAND_WORDS, Command, Commands, DialogueTimes, Ear, Hearing
 from speech.languages import Language
