@@ -23,12 +23,12 @@ from app.execution.events import HUMAN, ExecutionEvent, is_step
 from app.execution.narration import RobotVoice
 from app.execution.timing import WallTimeline
 from app.execution.walker import Executor
-from app.responses.voice import VoiceAnswers
 from app.responses.voice_room import LiveDialogue
 from app.sessions.store import SessionStore
 from app.sim.speaker import SimulatedSpeaker
 from app.sources.outcomes import RandomSource
 from app.sources.voice import VoiceHooks, VoiceSource
+from app.sources.voice_answers import VoiceAnswers
 from planner.plan.model import Plan, PlanNode
 from speech.audio import RATE
 from speech.recognition import Recognizer

@@ -19,7 +19,12 @@ import numpy as np
 import pytest
 
 from app.execution.walker import Executor
-from app.responses.voice import MicOptions, VoiceResponses, voice_responses
+from app.responses.voice import (
+    SpeechModels,
+    VoiceListeners,
+    VoiceResponses,
+    voice_responses,
+)
 from app.sources.outcomes import RandomSource
 from planner.plan.model import PlanNode
 from speech.audio import Samples
@@ -58,8 +63,9 @@ def until(condition: Callable[[], bool], within_s: float) -> bool:
 
 def mic_voice(recognizer: Recognizer, cache: Path, lost: list[str]) -> VoiceResponses:
     return voice_responses(
-        "mic", "en-us", RandomSource(1), recognizer=recognizer, cache_dir=cache,
-        mic=MicOptions("local", on_lost=lost.append),
+        "mic", "en-us", RandomSource(1),
+        speech=SpeechModels(recognizer, cache_dir=cache),
+        told=VoiceListeners(on_lost=lost.append),
     )  # fmt: skip
 
 

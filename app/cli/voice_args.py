@@ -15,7 +15,9 @@ from app.cli.exit_codes import BadInput
 from app.execution.narration import Line, plan_language
 from app.responses.voice import (
     DEFAULT_TIMES,
-    MicOptions,
+    Conversation,
+    SpeechModels,
+    VoiceListeners,
     VoiceResponses,
     dialogue_times,
     voice_responses,
@@ -96,23 +98,26 @@ def voice_from_args(
     # at the end of the input, a seeded choice.
     fallback = FallbackSource(ConsoleSource(sys.stdin, sys.stderr), RandomSource(seed)) if mic \
         else RandomSource(seed)  # fmt: skip
+    conversation = Conversation(
+        times=dialogue_times(human) if human is not None else DEFAULT_TIMES,
+        seed=seed,
+        human=args.human,
+        speakers="local" if speak == "local" else "none",
+    )
+    # espeak-ng when played here: local playback takes WAV, gTTS gives MP3.
+    speech = SpeechModels(model_dir=args.vosk_model,
+                          engine="espeak" if speak == "local" else "auto")  # fmt: skip
+    told = VoiceListeners(
+        # The microphone's dialogue plays its lines itself (its ear must know when).
+        on_line=LocalSpeakers() if speak == "local" and not mic else print_line,
+        on_attempt=print_attempt,
+        on_fallback=print_mic_fallback if mic else print_fallback,
+        on_lost=print_lost,
+        on_unplayed=print_unplayed,
+    )
     try:
-        return voice_responses(
-            spec,
-            code,
-            fallback,
-            seed=seed,
-            human=args.human,
-            model_dir=args.vosk_model,
-            # espeak-ng when played here: local playback takes WAV, gTTS gives MP3.
-            engine="espeak" if speak == "local" else "auto",
-            # The microphone's dialogue plays its lines itself (its ear must know when).
-            on_line=LocalSpeakers() if speak == "local" and not mic else print_line,
-            on_attempt=print_attempt,
-            on_fallback=print_mic_fallback if mic else print_fallback,
-            times=dialogue_times(human) if human is not None else DEFAULT_TIMES,
-            mic=MicOptions("local" if speak == "local" else "none", print_lost, print_unplayed),
-        )
+        return voice_responses(spec, code, fallback, conversation=conversation, speech=speech,
+                               told=told)  # fmt: skip
     except (NoSpeechModel, NoAudioDevice, UnknownLanguage, ScriptError) as error:
         raise BadInput(f"--responses {args.responses}: {error}") from error
     except (FileNotFoundError, ValueError) as error:

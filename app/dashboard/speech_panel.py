@@ -39,7 +39,13 @@ from app.dashboard.stage import Events, ExecutionFinished, ScenarioChanged, Stag
 from app.execution.events import OutcomeSource
 from app.execution.narration import Line, RobotVoice, plan_language
 from app.execution.walker import Narrator
-from app.responses.voice import MicOptions, VoiceResponses, voice_responses
+from app.responses.voice import (
+    Conversation,
+    SpeechModels,
+    VoiceListeners,
+    VoiceResponses,
+    voice_responses,
+)
 from app.sources.outcomes import ClickSource
 from app.sources.voice import Attempt
 from planner.plan.model import Plan
@@ -169,14 +175,19 @@ class SpeechPanel:
                     "mic" if mode == "microphone" else "sim",
                     code,
                     clicks,
-                    seed=random.randrange(2**31) if self.seed is None else self.seed,
-                    recognizer=self._recognizer(code),
-                    engine=self._engine,
-                    on_line=self._spoken,
-                    on_attempt=self._heard,
-                    on_listening=self._listening,
-                    live=mode == ROOM,
-                    mic=MicOptions(self.speak, self._lost, self._unplayed),
+                    conversation=Conversation(
+                        live=mode == ROOM,
+                        seed=random.randrange(2**31) if self.seed is None else self.seed,
+                        speakers=self.speak,
+                    ),
+                    speech=SpeechModels(self._recognizer(code), engine=self._engine),
+                    told=VoiceListeners(
+                        on_line=self._spoken,
+                        on_attempt=self._heard,
+                        on_listening=self._listening,
+                        on_lost=self._lost,
+                        on_unplayed=self._unplayed,
+                    ),
                 )
             except (NoSpeechModel, NoAudioDevice) as error:
                 self.heard.content = f"**No voice answers:** {error}. Answer by clicks."

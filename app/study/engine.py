@@ -135,13 +135,12 @@ def _channel(job: Job, scenario: Scenario, plan: Plan) -> Answering:
 
         return camera_responses("sim", scenario, plan, seed).answering(seed)
     from app.execution.narration import plan_language
-    from app.responses.voice import dialogue_times, voice_responses
+    from app.responses.voice import Conversation, dialogue_times, voice_responses
 
     # Quiet: a study prints a line per session, not each sentence heard.
-    voice = voice_responses(
-        "sim", plan_language(plan), RandomSource(seed), seed=seed,
-        times=dialogue_times(scenario.human),
-    )  # fmt: skip
+    conversation = Conversation(times=dialogue_times(scenario.human), seed=seed)
+    voice = voice_responses("sim", plan_language(plan), RandomSource(seed),
+                            conversation=conversation)  # fmt: skip
     return Answering(voice.source, narrator=voice.robot)
 
 
