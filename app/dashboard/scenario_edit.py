@@ -8,12 +8,13 @@ was. Validation errors are the planner's one-line `ScenarioError`s.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import tomlkit
 from tomlkit.exceptions import TOMLKitError
+from tomlkit.items import AbstractTable
 
 from app.dashboard.region_move import NoFreeSpot, free_spot
 from app.dashboard.scenario_folders import RefusedName, ScenarioFolders
@@ -110,7 +111,7 @@ def edit(
     return load_text(tomlkit.dumps(doc), source)
 
 
-def _set(table: Any, key: str, value: object) -> None:
+def _set(table: AbstractTable, key: str, value: object) -> None:
     """`key = value` in `table`, in its place; a value a missing key already means is
     not written, so an edit undone leaves the text as it was."""
     if key in table:
@@ -120,7 +121,7 @@ def _set(table: Any, key: str, value: object) -> None:
         table[key] = value
 
 
-def _stand(part: Any, before: Scenario | None, parts: list[Any]) -> None:
+def _stand(part: AbstractTable, before: Scenario | None, parts: Sequence[AbstractTable]) -> None:
     """Gives a part just moved to `part["region"]` the pose the planner should read
     (see `edit`); `before` is the scenario before the edit (None: it did not load)."""
     pid, where = part["id"], part["region"]
