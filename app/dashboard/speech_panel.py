@@ -31,11 +31,12 @@ import base64
 import random
 import threading
 import time
-from typing import Any, Literal
+from typing import Literal
 
 import viser
 
 from app.dashboard.stage import Events, ExecutionFinished, ScenarioChanged, Stage
+from app.dashboard.widgets import show
 from app.execution.events import OutcomeSource
 from app.execution.narration import Line, RobotVoice, plan_language
 from app.execution.walker import Narrator
@@ -96,15 +97,16 @@ class SpeechPanel:
         self._lock = threading.Lock()
         # Last on the page, below the panels that were there before it.
         with gui.add_folder("Speech", order=PANEL_ORDER):
-            # Any: viser's types mark `.value` read-only, yet setting it updates the page.
-            self.mode: Any = gui.add_dropdown("Answers by", MODES, initial_value=MODES[0])
-            self.mute: Any = gui.add_checkbox(
+            self.mode: viser.GuiDropdownHandle[str] = gui.add_dropdown(
+                "Answers by", MODES, initial_value=MODES[0]
+            )
+            self.mute: viser.GuiCheckboxHandle = gui.add_checkbox(
                 "Mute", False, hint="Answered by clicks, a muted robot shows its lines "
                 "without speaking them (they take no time)",
             )  # fmt: skip
             self.engine = gui.add_markdown("Voice: not spoken yet.")
             self.listening = gui.add_markdown("Not listening.")
-            self.level: Any = gui.add_progress_bar(0.0)
+            self.level = gui.add_progress_bar(0.0)  # viser does not export its handle class
             self.heard = gui.add_markdown("Nothing heard yet.")
             self.says = {
                 command: gui.add_button(f"Human says {command}", disabled=True, visible=False)
@@ -144,9 +146,9 @@ class SpeechPanel:
         """Loads the speech model as soon as a voice is chosen (it takes seconds), so
         the first question does not wait for it; says at once if there is none."""
         for button in self.says.values():
-            button.visible = str(self.mode.value) == ROOM
+            button.visible = self.mode.value == ROOM
         plan = self.stage.current_plan()
-        if str(self.mode.value) == "clicks" or plan is None:
+        if self.mode.value == "clicks" or plan is None:
             return
         code = plan_language(plan)
 
@@ -167,7 +169,7 @@ class SpeechPanel:
     ) -> tuple[OutcomeSource, Narrator | None]:
         """The outcome source and narrator of an execution of `plan` (clicks as fallback)."""
         code = plan_language(plan)
-        mode = str(self.mode.value)
+        mode = self.mode.value
         self.voice = None
         if mode != "clicks":
             try:
@@ -264,7 +266,7 @@ class SpeechPanel:
         now = time.monotonic()
         if force or now - self._level_at >= LEVEL_EVERY_S:
             self._level_at = now
-            self.level.value = min(100.0, 400.0 * rms)  # speech RMS is ~0.05-0.25
+            show(self.level, min(100.0, 400.0 * rms))  # speech RMS is ~0.05-0.25
 
     def _heard(self, attempt: Attempt) -> None:
         words = attempt.heard or "-"
