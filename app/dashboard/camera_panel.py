@@ -23,7 +23,6 @@ import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
@@ -72,7 +71,7 @@ class CameraPanel:
         events: Events,
         operator: Operator,
         recordings: Path,
-        tab: Any,
+        tab: viser.GuiTabHandle,
     ) -> None:
         """`tab`: the panel's container, where each page gets its own Enlarge box."""
         self.recordings = recordings
@@ -83,8 +82,10 @@ class CameraPanel:
         self.last_annotated: np.ndarray | None = None
         self._shown_at = 0.0
         self._lock = threading.Lock()
-        self.kind: Any = gui.add_dropdown("Source", SOURCES, initial_value="simulated")
-        self.where: Any = gui.add_text("Webcam index, or name in recordings", "0")
+        self.kind: viser.GuiDropdownHandle[str] = gui.add_dropdown(
+            "Source", SOURCES, initial_value="simulated"
+        )
+        self.where: viser.GuiTextHandle = gui.add_text("Webcam index, or name in recordings", "0")
         # Stop, then start again, to switch sources.
         # During an execution only its operator may change what answers it.
         self.start_button = gui.add_button("Start camera")

@@ -18,7 +18,7 @@ from typing import Any, Protocol
 import viser
 
 from app.dashboard.log_lines import sentence
-from app.dashboard.operator import Operator, refuse
+from app.dashboard.operator import Click, Operator, refuse
 from app.dashboard.stage import (
     CameraAnswers,
     CameraChanged,
@@ -86,7 +86,7 @@ class ExecutionPanel:
         self.clicks: ClickSource | None = None
         self.session: StoredSession | None = None  # the last execution's
         self.camera: CameraAnswers | None = None  # when set, it answers sensing nodes
-        self._answer_buttons: list[Any] = []
+        self._answer_buttons: list[viser.GuiButtonHandle] = []
         self._preparing = False
         self._log: list[str] = []
         self._lock = threading.Lock()  # the answer buttons: executor and GUI threads
@@ -381,8 +381,8 @@ class ExecutionPanel:
                     )
                     self._answer_buttons.append(button)
 
-    def _answer(self, node_id: str, label: str) -> Any:
-        def handler(_: Any) -> None:
+    def _answer(self, node_id: str, label: str) -> Callable[[Click], None]:
+        def handler(_: Click) -> None:
             if self.clicks is not None:
                 self.clicks.click(label, node_id)
 

@@ -12,7 +12,6 @@ placement would have become every later visitor's layout.
 from __future__ import annotations
 
 import threading
-from typing import Any
 
 import numpy as np
 import viser
@@ -68,7 +67,7 @@ class FrameWindows:
     `tab` is the Camera panel's container; `order` places each page's box in it.
     `show` is called from the camera's thread, the boxes from viser's."""
 
-    def __init__(self, tab: Any, order: float) -> None:
+    def __init__(self, tab: viser.GuiTabHandle, order: float) -> None:
         self.tab = tab
         self.order = order
         self.frame: np.ndarray | None = None

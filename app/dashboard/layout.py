@@ -22,10 +22,12 @@ Widths are chosen for 1600×1000 and still leave the bench 452 px at
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Literal
 
 import viser
 from viser._gui_handles import CONTROL_PANEL_ID, _PlacementMixin
+
+from app.dashboard.operator import Click
 
 LEFT_PX = 320.0
 RIGHT_PX = 500.0
@@ -59,12 +61,12 @@ class Layout:
     def __init__(self, gui: viser.GuiApi) -> None:
         self.gui = gui
         self.tree_panel = gui.add_panel()
-        self.tree_tab: Any = self.tree_panel.add_tab("Plan tree")
+        self.tree_tab: viser.GuiTabHandle = self.tree_panel.add_tab("Plan tree")
         self.execution_panel = gui.add_panel()
-        self.execution_tab: Any = self.execution_panel.add_tab("Execution")
-        self.review_tab: Any = self.execution_panel.add_tab("Review")
+        self.execution_tab: viser.GuiTabHandle = self.execution_panel.add_tab("Execution")
+        self.review_tab: viser.GuiTabHandle = self.execution_panel.add_tab("Review")
         self.camera_panel = gui.add_panel()
-        self.camera_tab: Any = self.camera_panel.add_tab("Camera")
+        self.camera_tab: viser.GuiTabHandle = self.camera_panel.add_tab("Camera")
         self._right_px: dict[int, float] = {}  # a page's right column, once widened
         self._arrange(gui)
 
@@ -110,7 +112,7 @@ class Layout:
             "Restore the layout", hint="Puts this page's panels back where they started."
         )
 
-        def restore(event: viser.GuiEvent[Any]) -> None:
+        def restore(event: Click) -> None:
             if event.client is not None:
                 self.restore(event.client)
 

@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from typing import Any
 
 import viser
 
 REFUSED_TITLE = "Only the operator can do that"
+
+# A press of a button; the operator's controls are all buttons.
+Click = viser.GuiEvent[viser.GuiButtonHandle]
 
 
 class Operator:
@@ -43,12 +45,10 @@ class Operator:
         with self._lock:
             return client_id is None or self._client is None or client_id == self._client
 
-    def only(
-        self, what: str, handler: Callable[[viser.GuiEvent[Any]], None]
-    ) -> Callable[[viser.GuiEvent[Any]], None]:
+    def only(self, what: str, handler: Callable[[Click], None]) -> Callable[[Click], None]:
         """`handler`, run only for the operator's page; other pages are told why not."""
 
-        def guarded(event: viser.GuiEvent[Any]) -> None:
+        def guarded(event: Click) -> None:
             if self.allows(event.client_id):
                 handler(event)
             else:

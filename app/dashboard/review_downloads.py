@@ -10,10 +10,10 @@ one loaded when its hash is the session's, else the shipped one with that hash.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import viser
 
+from app.dashboard.operator import Click
 from app.dashboard.session_files import FILE_FORMATS, FileFormat, file_name, scenario_of
 from app.dashboard.session_files import session_file as make_file
 from app.dashboard.stage import Stage
@@ -52,7 +52,7 @@ class SessionDownloads:
         for kind in FILE_FORMATS:
             gui.add_button(f"Export {kind.upper()}").on_click(self._sender(kind))
 
-    def _sender(self, kind: FileFormat) -> Callable[[viser.GuiEvent[Any]], None]:
+    def _sender(self, kind: FileFormat) -> Callable[[Click], None]:
         return lambda event: self.send(event.client, kind)
 
     def send(self, client: viser.ClientHandle | None, kind: FileFormat) -> None:
