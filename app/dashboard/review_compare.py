@@ -20,12 +20,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import viser
 
 from app.dashboard.review_timeline import lanes_html
 from app.dashboard.timeline_svg import Window, duration, is_timed
+from app.dashboard.widgets import show
 from app.execution.events import ExecutionEvent, is_step
 from app.sessions.database import StoreError
 from app.sessions.store import SessionRecord, SessionStore, UnknownSession
@@ -130,7 +130,7 @@ class CompareView:
         self.other_marked: int | None = None  # the divergence, in the second
         self.caption = ""
         self._ids: dict[str, int] = {}
-        self.pick: Any = gui.add_dropdown("Compare with", [NO_COMPARISON])
+        self.pick: viser.GuiDropdownHandle[str] = gui.add_dropdown("Compare with", [NO_COMPARISON])
         self.pick.on_update(lambda e: self._picked(e.client is not None))
         self.words = gui.add_markdown("")
 
@@ -144,7 +144,7 @@ class CompareView:
             self.words.content = f"**Error:** {err}"
         self._ids = {compare_label(s): s.id for s in others}
         self.pick.options = [NO_COMPARISON, *self._ids]
-        self.pick.value = NO_COMPARISON
+        show(self.pick, NO_COMPARISON)
         self.clear()
 
     def label_of(self, session_id: int) -> str | None:

@@ -47,6 +47,7 @@ from app.dashboard.review_timeline import (
 from app.dashboard.stage import Events, ExecutionFinished, ExecutionStarted, Stage
 from app.dashboard.timeline_svg import Window, duration, sources
 from app.dashboard.tree_svg import Step
+from app.dashboard.widgets import show
 from app.execution.events import REPAIR, RESULTS, ExecutionEvent
 from app.sessions.database import StoreError
 from app.sessions.store import SessionRecord, SessionStore, UnknownSession, iso
@@ -72,7 +73,7 @@ class ReviewPanel:
         self.stage = stage
         self.store = store
         self._replaying = threading.Event()
-        self.events: list[Any] = []
+        self.events: list[ExecutionEvent] = []
         self.session: SessionRecord | None = None
         self._ids: dict[str, int] = {}
         self.opened: int | None = None  # set once a session is fully on screen
@@ -88,7 +89,7 @@ class ReviewPanel:
             # The lanes under the slider; a click on a bar, a zoom or a pan comes
             # back through the hidden field (review_timeline.py).
             self.lanes = gui.add_html(HIDE_BRIDGE)
-            self.bridge: Any = gui.add_text("lanes events", BRIDGE)
+            self.bridge: viser.GuiTextHandle = gui.add_text("lanes events", BRIDGE)
             self.bridge.on_update(lambda _: self._bridged(str(self.bridge.value)))
             # The time each picture shows (None: all of it), kept between drawings.
             self.windows: dict[Picture, Window | None] = dict.fromkeys(PICTURES)
@@ -99,8 +100,9 @@ class ReviewPanel:
             self.summary = gui.add_markdown("")
             # The frame that decided a camera answer, beside its event.
             self.frame_caption = gui.add_markdown("")
-            self.frame: Any = gui.add_image(np.zeros((240, 320, 3), np.uint8), format="jpeg",
-                                            visible=False)  # fmt: skip
+            self.frame: viser.GuiImageHandle = gui.add_image(
+                np.zeros((240, 320, 3), np.uint8), format="jpeg", visible=False
+            )
             self.metrics = gui.add_markdown("")
             self.replay_button = gui.add_button("Replay")
             self.replay_button.on_click(lambda _: self._replay())
@@ -113,11 +115,11 @@ class ReviewPanel:
         events.subscribe(ExecutionFinished, lambda _: self._set_executing(False))
 
     def _build_list(self, gui: viser.GuiApi) -> None:
-        self.scenario_filter: Any = gui.add_text("Scenario", "")
-        self.result_filter: Any = gui.add_dropdown("Result", FILTERS)
-        self.since_filter: Any = gui.add_text("Since (YYYY-MM-DD)", "")
+        self.scenario_filter: viser.GuiTextHandle = gui.add_text("Scenario", "")
+        self.result_filter: viser.GuiDropdownHandle[str] = gui.add_dropdown("Result", FILTERS)
+        self.since_filter: viser.GuiTextHandle = gui.add_text("Since (YYYY-MM-DD)", "")
         gui.add_button("Refresh list").on_click(lambda _: self.refresh())
-        self.pick: Any = gui.add_dropdown("Session", [NONE])
+        self.pick: viser.GuiDropdownHandle[str] = gui.add_dropdown("Session", [NONE])
         self.open_button = gui.add_button("Open session")
         self.open_button.on_click(lambda _: self.open(self.pick.value))
 
@@ -156,7 +158,7 @@ class ReviewPanel:
         self._ids = {session_label(s): s.id for s in listed}
         options = list(self._ids) or [NONE]
         self.pick.options = options
-        self.pick.value = options[0]
+        show(self.pick, options[0])
         full = len(listed) == LISTED
         more = f" The newest {LISTED} are listed: filter for others." if full else ""
         self.summary.content = f"{len(sessions)} session(s).{more}"
@@ -182,7 +184,7 @@ class ReviewPanel:
         self.stage.show_plan(plan)
         self.timeline.max = max(2, len(self.events))
         self.timeline.disabled = not self.events
-        self.timeline.value = 1
+        show(self.timeline, 1)
         self.windows = dict.fromkeys(PICTURES)
         self.metrics.content = metrics_markdown(self.events, self.session.clock)
         self.compare.offer(self.session, self.events)
@@ -208,7 +210,7 @@ class ReviewPanel:
                 current = self._plan(replanned.plan)
         return plans
 
-    def _timeline_moved(self, event: Any) -> None:
+    def _timeline_moved(self, event: viser.GuiEvent[viser.GuiSliderHandle[int]]) -> None:
         # Moves made here (open, replay) show their step themselves.
         if event.client is not None:
             self.show_step(int(self.timeline.value) - 1)
@@ -225,7 +227,7 @@ class ReviewPanel:
         if message.what == "step" and message.step is not None and message.picture == "first":
             k = message.step
             self._replaying.clear()  # the user takes over from a replay
-            self.timeline.value = min(k, len(self.events) - 1) + 1
+            show(self.timeline, min(k, len(self.events) - 1) + 1)
             self.show_step(k)
 
     def _total(self, picture: Picture) -> float:
@@ -305,7 +307,7 @@ class ReviewPanel:
             for k in range(len(self.events)):
                 if not self._replaying.is_set():
                     return  # closed meanwhile
-                self.timeline.value = k + 1
+                show(self.timeline, k + 1)
                 self.show_step(k)
                 time.sleep(0.3)
 

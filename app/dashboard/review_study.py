@@ -16,12 +16,12 @@ import io
 import sqlite3
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import viser
 from PIL import Image
 
+from app.dashboard import widgets
 from app.sessions.database import StoreError
 from app.sessions.metrics import SessionMetrics, session_metrics
 from app.sessions.store import SessionStore
@@ -137,11 +137,12 @@ class StudyView:
     def __init__(self, gui: viser.GuiApi, store: SessionStore) -> None:
         self.store = store
         self.shown: StudyResults | None = None
-        self.pick: Any = gui.add_dropdown("Study", [NO_STUDY])
+        self.pick: viser.GuiDropdownHandle[str] = gui.add_dropdown("Study", [NO_STUDY])
         self.pick.on_update(lambda e: self.show(str(self.pick.value)) if e.client else None)
         self.table = gui.add_markdown("")
-        self.figure: Any = gui.add_image(np.zeros((8, 8, 3), np.uint8), format="png",
-                                         visible=False)  # fmt: skip
+        self.figure: viser.GuiImageHandle = gui.add_image(
+            np.zeros((8, 8, 3), np.uint8), format="png", visible=False
+        )
         self.refresh()
 
     def refresh(self) -> None:
@@ -155,11 +156,11 @@ class StudyView:
         if list(self.pick.options) != options:
             self.pick.options = options
         if self.shown is None or self.shown.name not in names:
-            self.pick.value = options[0]
+            widgets.show(self.pick, options[0])
 
     def show(self, name: str) -> None:
         if self.pick.value != name and name in self.pick.options:
-            self.pick.value = name  # shown from here (not the page): the page follows
+            widgets.show(self.pick, name)  # shown from here (not the page): the page follows
         if name in (NO_STUDY, CHOOSE):
             self.shown = None
             self.table.content = ""
