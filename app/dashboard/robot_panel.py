@@ -19,11 +19,12 @@ from __future__ import annotations
 import os
 import threading
 import time
-from typing import Any
+from collections.abc import Callable
 
 import viser
 
 from app.dashboard.stage import Stage
+from app.dashboard.widgets import show
 from app.execution.robot_drive import FaultChoice, RobotDriver, ToStart
 from app.execution.robot_link import JointState, RobotFault, RobotLink
 from app.execution.timing import SPEED_RATIO
@@ -40,21 +41,22 @@ class RobotPanel:
         self.stage = stage
         self.link: RobotLink | None = None
         self._drawn = 0.0
-        self._stop_watching: Any = None
+        self._stop_watching: Callable[[], None] | None = None
         self._choice: FaultChoice | None = None
         self._chosen = threading.Condition()
         with gui.add_folder("Robot", expand_by_default=False):
-            self.moves: Any = gui.add_dropdown("Moves", MOVES)
+            self.moves: viser.GuiDropdownHandle[str] = gui.add_dropdown("Moves", MOVES)
             master = os.environ.get("ROS_MASTER_URI", "http://127.0.0.1:11311")
-            self.master: Any = gui.add_text("ROS master", master)
+            self.master: viser.GuiTextHandle = gui.add_text("ROS master", master)
             self.connect_button = gui.add_button("Connect")
             self.connect_button.on_click(lambda _: self._connect_clicked())
             self.status = gui.add_markdown(DRAWING)
         self.moves.on_update(lambda _: self._moves_changed())
         self.gui = gui
-        self.fault: Any = None
-        self.retry_button: Any = None
-        self.abort_button: Any = None
+        # Made by add_fault_controls, in the Execution tab.
+        self.fault: viser.GuiMarkdownHandle | None = None
+        self.retry_button: viser.GuiButtonHandle | None = None
+        self.abort_button: viser.GuiButtonHandle | None = None
 
     def add_fault_controls(self) -> None:
         """The fault's line and the operator's two buttons, hidden until a fault, in
@@ -88,7 +90,7 @@ class RobotPanel:
         from app.robot.ros_link import RosLink
 
         self.disconnect()
-        self.moves.value = MOVES[1]
+        show(self.moves, MOVES[1])
         uri = str(self.master.value).strip()
         self.status.content = f"**Connecting** to {uri}…"
         link = RosLink(uri)
@@ -96,7 +98,7 @@ class RobotPanel:
             link.connect(CONNECT_TIMEOUT_S)
         except (RobotFault, RosMissing) as err:
             self.status.content = f"**Not connected:** {err}. {DRAWING}"
-            self.moves.value = MOVES[0]
+            show(self.moves, MOVES[0])
             return False
         self.link = link
         self._stop_watching = link.watch(self._follow)

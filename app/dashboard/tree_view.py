@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from typing import Any
 
 import viser
 
@@ -120,7 +119,7 @@ class TreeView:
         self._found: list[str] = []
         # Planning, execution and clicks redraw from different threads.
         self._lock = threading.RLock()
-        self.bridge: Any = gui.add_text("tree events", BRIDGE)
+        self.bridge: viser.GuiTextHandle = gui.add_text("tree events", BRIDGE)
         self.bridge.on_update(lambda _: self._bridged(str(self.bridge.value)))
         # Always at hand, one row: zoom, and the tree beside the bench (Wide) or not.
         view = gui.add_button_group("View", (*ZOOMS, *WIDTHS))
@@ -130,21 +129,22 @@ class TreeView:
         # Under the picture and the selected node's details (added by the dashboard
         # between them), so those two share the panel's height.
         self._gui = gui
-        self.found: Any = None
-        self.follow: Any = None
+        # Made by add_find_controls.
+        self.found: viser.GuiMarkdownHandle | None = None
+        self.follow: viser.GuiCheckboxHandle | None = None
 
     def add_find_controls(self) -> None:
         """Find, Follow and the legend, in a folder closed at first."""
         gui = self._gui
         with gui.add_folder("Find, follow, legend", expand_by_default=False):
-            self.find_text: Any = gui.add_text("Find action or node", "")
+            self.find_text: viser.GuiTextHandle = gui.add_text("Find action or node", "")
             self.find_button = gui.add_button("Find next")
             self.find_button.on_click(lambda _: self.find(str(self.find_text.value)))
             self.found = gui.add_markdown("")
             self.follow = gui.add_checkbox("Follow the execution", True)
             gui.add_html(legend_html())
 
-    def _view_clicked(self, event: viser.GuiEvent[Any]) -> None:
+    def _view_clicked(self, event: viser.GuiEvent[viser.GuiButtonGroupHandle]) -> None:
         what = str(event.target.value)
         if what in ZOOMS:
             self.zoom(what)
@@ -261,7 +261,8 @@ class TreeView:
         `redraw` the marks wait for the next picture (a selection that follows)."""
         with self._lock:
             self.marks = TreeMarks(self.marks.selected, current, path, self.marks.matches)
-            if current is not None and bool(self.follow.value):
+            # Without the Follow box (no find controls) the tree follows, its default.
+            if current is not None and (self.follow is None or bool(self.follow.value)):
                 self._centre(current)
             if redraw:
                 self.redraw()
@@ -331,21 +332,25 @@ class TreeView:
             plan = self.plan
             wanted = text.strip().lower()
             if plan is None or not wanted:
-                self.found.content = ""
+                self._say_found("")
                 return
             matches = [n for n, node in plan.nodes.items()
                        if wanted in label(node).lower() or wanted == n.lower()]  # fmt: skip
             if not matches:
-                self.found.content = f"No node's action contains “{text.strip()}”."
+                self._say_found(f"No node's action contains “{text.strip()}”.")
                 self.marks = TreeMarks(self.marks.selected, self.marks.current, self.marks.path)
                 self.redraw()
                 return
             after = [n for n in matches if self._found and n > self._found[-1]]
             target = after[0] if after else matches[0]
             self._found = [target]
-            self.found.content = f"{matches.index(target) + 1} of {len(matches)}: `{target}`."
+            self._say_found(f"{matches.index(target) + 1} of {len(matches)}: `{target}`.")
             self.marks = TreeMarks(self.marks.selected, self.marks.current, self.marks.path,
                                    frozenset(matches))  # fmt: skip
             self.expand_to(target)
             self._centre(target)
         self.on_select(target)
+
+    def _say_found(self, words: str) -> None:
+        if self.found is not None:  # None: no find controls, nothing to say it in
+            self.found.content = words
