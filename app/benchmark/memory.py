@@ -65,6 +65,7 @@ from websockets.typing import Subprotocol
 from app.benchmark.soak import rss_mb
 from app.dashboard.server import Dashboard, DashboardSettings
 from app.dashboard.stage import ExecutionFinished
+from app.dashboard.widgets import show
 from planner.plan.model import format_table
 
 WARM_UP = 20  # executions before the growth counts: caches fill, the voice's files appear
@@ -223,10 +224,10 @@ def run_day(
     finishes = Finishes(dashboard)
     try:
         _wait(lambda: len(dashboard.server.get_clients()) == pages, 30, "the pages")
-        dashboard.execution.speed.value = 0.0
+        show(dashboard.execution.speed, 0.0)
         # Muted: a day's executions back to back, not at the pace of the robot's voice
         # (on the wall clock a spoken line lasts as its audio plays).
-        dashboard.speech.mute.value = True
+        show(dashboard.speech.mute, True)
         plan_once(dashboard)
         for k in range(1, executions + 1):
             if replan and k > 1:

@@ -31,6 +31,7 @@ from typing import Any
 
 from app.benchmark.page_driver import NODES_IN_VIEW, dashboard_page, plan_in_page, wait_for
 from app.dashboard.server import Dashboard
+from app.dashboard.widgets import show
 from planner.plan.model import format_table
 
 BIG = "paper/U10.toml"
@@ -108,7 +109,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         clicks, benches = node_clicks(dashboard, page, args.clicks)
     with dashboard_page("default.toml") as (dashboard, page):
         plan_in_page(dashboard, page)
-        dashboard.execution.speed.value = 0.5
+        show(dashboard.execution.speed, 0.5)
         starts = execution_starts(dashboard, page, args.starts)
     ratio = median(in_page) / median(cli)
     rows: list[tuple[str, ...]] = [

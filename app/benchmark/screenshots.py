@@ -24,6 +24,7 @@ from typing import Any
 
 from app.benchmark.page_driver import dashboard_page, plan_in_page, wait_for
 from app.dashboard.server import Dashboard
+from app.dashboard.widgets import show
 
 SETTLE_S = 4.0  # the robot's meshes arrive and are drawn (software WebGL)
 
@@ -77,7 +78,7 @@ def trees(out: Path) -> None:
 def execution(out: Path, size: tuple[int, int], review: bool) -> None:
     with dashboard_page("default.toml", size, models=True) as (dashboard, page):
         plan_in_page(dashboard, page)
-        dashboard.execution.speed.value = 0.2
+        show(dashboard.execution.speed, 0.2)
         page.get_by_role("button", name="Execute plan", exact=True).click()
         wait_for(lambda: dashboard.execution.running)
         answer(dashboard, page, 3)
@@ -87,7 +88,7 @@ def execution(out: Path, size: tuple[int, int], review: bool) -> None:
         shoot(page, out / f"execution-{size[0]}x{size[1]}.png")
         if not review:
             return
-        dashboard.execution.speed.value = 0.0
+        show(dashboard.execution.speed, 0.0)
         answer(dashboard, page, None)
         session = dashboard.execution.session_id
         # The review opens a session once the execution has ended (its finish is
@@ -98,7 +99,7 @@ def execution(out: Path, size: tuple[int, int], review: bool) -> None:
         dashboard.review.open(label)
         wait_for(lambda: dashboard.review.opened == session)
         half = len(dashboard.review.events) // 2
-        dashboard.review.timeline.value = half + 1  # where the slider stands (steps from 1)
+        show(dashboard.review.timeline, half + 1)  # where the slider stands (steps from 1)
         dashboard.review.show_step(half)
         page.get_by_role("tab", name="Review").click()
         time.sleep(1.0)

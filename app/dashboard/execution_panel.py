@@ -13,7 +13,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Protocol
 
 import viser
 
@@ -113,7 +113,9 @@ class ExecutionPanel:
             self.question = gui.add_markdown("No question yet.")
         self.strip = gui.add_html("")
         self.log = gui.add_markdown("")
-        self.speed: Any = gui.add_slider("Seconds per step", 0.0, 3.0, 0.1, 0.5)
+        self.speed: viser.GuiSliderHandle[float] = gui.add_slider(
+            "Seconds per step", 0.0, 3.0, 0.1, 0.5
+        )
         events.subscribe(PlanChanged, self._plan_changed)
         events.subscribe(CameraChanged, self._camera_changed)
         events.subscribe(CameraSeen, lambda m: setattr(self, "_seen", (m, time.monotonic())))

@@ -19,7 +19,6 @@ from __future__ import annotations
 import threading
 import time
 from datetime import date
-from typing import Any
 
 import cv2
 import numpy as np
@@ -84,7 +83,9 @@ class ReviewPanel:
         with gui.add_folder("Review sessions"):
             self._build_list(gui)
             # Steps counted from 1, as the summary and the comparison count them.
-            self.timeline: Any = gui.add_slider("Timeline", 1, 2, 1, 1, disabled=True)
+            self.timeline: viser.GuiSliderHandle[int] = gui.add_slider(
+                "Timeline", 1, 2, 1, 1, disabled=True
+            )
             self.timeline.on_update(self._timeline_moved)
             # The lanes under the slider; a click on a bar, a zoom or a pan comes
             # back through the hidden field (review_timeline.py).

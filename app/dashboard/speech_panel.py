@@ -31,7 +31,7 @@ import base64
 import random
 import threading
 import time
-from typing import Any, Literal
+from typing import Literal
 
 import viser
 
@@ -100,9 +100,7 @@ class SpeechPanel:
             self.mode: viser.GuiDropdownHandle[str] = gui.add_dropdown(
                 "Answers by", MODES, initial_value=MODES[0]
             )
-            # Any until the memory soak (app/benchmark/memory.py) mutes it through
-            # widgets.show: it assigns `.value`, which viser's types mark read-only.
-            self.mute: Any = gui.add_checkbox(
+            self.mute: viser.GuiCheckboxHandle = gui.add_checkbox(
                 "Mute", False, hint="Answered by clicks, a muted robot shows its lines "
                 "without speaking them (they take no time)",
             )  # fmt: skip
