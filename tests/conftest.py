@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -64,7 +65,20 @@ def _uses(module: types.ModuleType, prefixes: tuple[str, ...]) -> bool:
     return False
 
 
+# Files run heaviest first (seconds of one worker, measured: `TANDEM_TEST_DURATIONS=FILE
+# pytest ...` writes them), so the last files of a run are short ones and the workers
+# end together instead of one finishing a long file alone; a file's tests keep their
+# order. A file not yet measured counts as light.
+DURATIONS = Path(__file__).with_name("durations.json")
+
+
+def _heaviest_first(items: list[pytest.Item]) -> None:
+    weights: dict[str, float] = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
+    items.sort(key=lambda item: -weights.get(item.path.name, 0.0))  # stable: order kept
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    _heaviest_first(items)
     seen: dict[str, set[str]] = {}
     for item in items:
         module = getattr(item, "module", None)
@@ -90,6 +104,10 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
 
     root, scopes = config.rootpath, {}
 
+    # Files are handed out in the order collected (heaviest first), not by their count
+    # of tests.
+    config.option.loadscopereorder = False
+
     class FileScheduling(LoadFileScheduling):  # type: ignore[misc]
         def _split_scope(self, nodeid: str) -> str:
             path = nodeid.split("::", 1)[0]
@@ -100,6 +118,22 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
             return scopes[path]
 
     return FileScheduling(config, log)
+
+
+_spent: dict[str, float] = {}
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    # Each phase's report reaches the controller (or the only process) once.
+    name = report.nodeid.split("::", 1)[0].rsplit("/", 1)[-1]
+    _spent[name] = _spent.get(name, 0.0) + report.duration
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    target = os.environ.get("TANDEM_TEST_DURATIONS")
+    if target and not hasattr(session.config, "workerinput"):
+        rounded = {name: round(seconds, 1) for name, seconds in sorted(_spent.items())}
+        Path(target).write_text(json.dumps(rounded, indent=1) + "\n")
 
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
