@@ -27,7 +27,7 @@ from planner.scenario.loading import Scenario, load_scenario, parse_scenario
 from planner.search.errors import DeadEnd
 
 SCENARIO_DIR = scenario_path("paper")
-# The paper's real-world task (README, "The real-world task"): benchmarked after
+# The paper's real-world task (docs/benchmark.md): benchmarked after
 # the instances, always with geometry (it has no declared table).
 REAL_WORLD_PATH = scenario_path("real-world.toml")
 
