@@ -83,9 +83,9 @@ def test_the_figure_names_conditions_by_what_varies() -> None:
 def test_a_voice_participants_speech_is_timed_on_the_sessions_clock(tmp_path: Path) -> None:
     """A study's voice condition keeps the human's speech as human activity (source
     voice), on the session's simulated clock within each question's wait."""
-    from app.study.engine import run_job
     from app.sessions.metrics import session_metrics
     from app.sessions.studies import load_study
+    from app.study.engine import run_job
 
     path = tmp_path / "v.toml"
     path.write_text(
