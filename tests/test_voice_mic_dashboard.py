@@ -48,6 +48,16 @@ def _click_pending(page: Page, dashboard: Dashboard, clicked: list[str]) -> None
     clicked.append(offer.node_id)
 
 
+def _question_pending(dashboard: Dashboard) -> bool:
+    """Whether a question (a communication node, the voice's to answer) waits."""
+    clicks = dashboard.execution.clicks
+    offer = clicks.pending() if clicks is not None else None
+    plan = dashboard.execution.stage.current_plan()
+    if offer is None or plan is None:
+        return False
+    return plan.nodes[offer.node_id].kind == "communication"
+
+
 def _no_voice_in_the_wait_line(dashboard: Dashboard) -> int:
     """A question waiting for a click once the voice has ended: its wait line names the
     click alone, never "the voice is listening" (1; 0 when no question waits)."""
@@ -68,7 +78,9 @@ def _robot_quiet(device: SoundServer) -> bool:
 
 
 def test_the_dashboards_microphone_hears_answers_and_survives_an_unplugged_device(
-    browser: Browser, microphone: SoundServer, tmp_path: Path  # noqa: F811
+    browser: Browser,
+    microphone: SoundServer,
+    tmp_path: Path,  # noqa: F811
 ) -> None:
     settings = DashboardSettings(workers=1, cache_dir=str(tmp_path / "cache"),
                                  data_dir=str(tmp_path / "data"), load_models=False,
@@ -98,7 +110,10 @@ def test_the_dashboards_microphone_hears_answers_and_survives_an_unplugged_devic
                 shot(page, "speech-microphone-ended")
             if unplugged:
                 lines_checked += _no_voice_in_the_wait_line(dashboard)
-            if unplugged or not listening:
+            # Before the unplug a question is the voice's, though its buttons are drawn
+            # a moment before the panel says "Listening": only what the voice does not
+            # answer is clicked (a click there once took the first question).
+            if unplugged or not (listening or _question_pending(dashboard)):
                 _click_pending(page, dashboard, clicked)
             time.sleep(0.05)
         assert executor.result == "goal", executor.events

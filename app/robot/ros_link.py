@@ -67,6 +67,9 @@ from app.robot.ros_env import master_answers, use_ros
 SILENT_S = 1.0  # no joint state for this long: the robot (or its driver) is gone
 MASTER_CHECK_S = 0.5
 CANCEL_WAIT_S = 0.4  # a cancelled goal reports preempted within this
+# /robot/state is a topic of its own: an e-stop that ends a goal may be said there a
+# moment after the goal's result, so an arm short of its end waits this long for why.
+STATE_LAG_S = 0.5
 TICK_S = 0.02
 LAG_WINDOW = 200  # joint states over which the robot's clock offset is taken
 # actionlib's goal states (actionlib_msgs/GoalStatus).
@@ -260,6 +263,9 @@ class RosLink:
         off = off_goal(self._last(), trajectory.final())
         if off is None:
             return None, done
+        fault = self._robot_fault_within(STATE_LAG_S)
+        if fault is not None:
+            return fault.cause, fault.line
         joint, error = off
         return "off-goal", (
             f"the {trajectory.arm} arm stopped {abs(error):.3f} rad from the end of its "
