@@ -14,7 +14,7 @@ memory instead.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from app.execution.events import Clock, OutcomeSource, Result
 from app.execution.repair import Repairer
@@ -39,7 +39,7 @@ class Answering:
 
     source: OutcomeSource
     narrator: Narrator | None = None
-    listeners: Sequence[Listener] = field(default_factory=tuple)
+    listeners: Sequence[Listener] = ()
     close: Callable[[], None] = _nothing
 
 
