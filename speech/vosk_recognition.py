@@ -61,6 +61,13 @@ from speech.models import find_model, in_vocabulary, load_model
 from speech.voice_activity import activity
 
 FRAME_S = 0.02
+# vosk decodes the same audio differently as a process goes on (its model keeps
+# state from one recogniser to the next: alphacep/vosk-api#660). Measured: repeating
+# one espeak-ng "네" 20 times in a process, the distractor grammar heard no word at
+# all 5 times (alone, it hears 네). A grammar without [unk] that hears nothing where
+# another grammar heard words has failed rather than refused, so that decoding is
+# run again from the start, up to this many times.
+EMPTY_RETRIES = 2
 
 
 @dataclass(frozen=True)
@@ -249,11 +256,12 @@ class VoskDecoding:
 
     def __init__(self, recognizer: VoskRecognizer) -> None:
         self.recognizer = recognizer
-        self._decoders = (
-            recognizer._kaldi(recognizer._answers),
-            recognizer._kaldi(recognizer._answers, alternatives=8),
-            recognizer._kaldi(recognizer._with_distractors),
+        self._grammars = (
+            (recognizer._answers, 0),
+            (recognizer._answers, 8),
+            (recognizer._with_distractors, 0),
         )
+        self._decoders = tuple(recognizer._kaldi(*grammar) for grammar in self._grammars)
         self._chunks: list[Samples] = []
 
     def feed(self, block: npt.NDArray[np.generic]) -> None:
@@ -267,7 +275,31 @@ class VoskDecoding:
         """What the answer fed so far means; `decode_s` counts from `started` (default: now)."""
         begun = time.perf_counter() if started is None else started
         audio = np.concatenate(self._chunks) if self._chunks else np.zeros(0, dtype=np.int16)
-        answers, nbest, distractors = (
-            json.loads(decoder.FinalResult()) for decoder in self._decoders
-        )
+        results = [json.loads(decoder.FinalResult()) for decoder in self._decoders]
+        if any(_has_words(result) for result in results):
+            results = [
+                result if _has_words(result) else self._again(grammar)
+                for result, grammar in zip(results, self._grammars, strict=True)
+            ]
+        answers, nbest, distractors = results
         return self.recognizer.decide(audio, answers, nbest, distractors, begun)
+
+    def _again(self, grammar: tuple[str, int]) -> dict[str, Any]:
+        """The utterance decoded anew in `grammar`, up to `EMPTY_RETRIES` times, until
+        it hears a word (see `EMPTY_RETRIES`)."""
+        result: dict[str, Any] = {}
+        for _ in range(EMPTY_RETRIES):
+            decoder = self.recognizer._kaldi(*grammar)
+            for chunk in self._chunks:
+                decoder.AcceptWaveform(chunk.tobytes())
+            result = json.loads(decoder.FinalResult())
+            if _has_words(result):
+                break
+        return result
+
+
+def _has_words(decoded: dict[str, Any]) -> bool:
+    """Whether a vosk result (one hypothesis, or an n-best list) holds a word."""
+    if "alternatives" in decoded:
+        return any(h.get("result") for h in decoded["alternatives"])
+    return bool(decoded.get("result"))
