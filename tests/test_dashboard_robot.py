@@ -155,7 +155,11 @@ def test_a_robot_fault_asks_the_operator_and_retry_goes_on(
         retry.click()
         executor = dashboard.execution.executor
         assert executor is not None
+        # Bounded, and saying where the run stood: a run that waits for ever (the
+        # operator asked again, a goal never ended) fails here with its events.
+        deadline = time.monotonic() + 240
         while not executor.done:
+            assert time.monotonic() < deadline, executor.events
             offer = dashboard.execution.clicks.pending() if dashboard.execution.clicks else None
             if offer is not None:
                 dashboard.execution.clicks.click(offer.options[-1], offer.node_id)

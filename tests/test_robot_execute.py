@@ -21,6 +21,7 @@ import pytest
 from app.execution.events import ExecutionEvent
 from app.execution.robot_link import farthest
 from app.robot.ros_env import RosMaster, free_port
+from app.robot.ros_link import RESULT_GRACE_S
 from app.sessions.store import DB_NAME, SessionStore, StoreError
 from tests.robot_graph import (
     ROOT,
@@ -175,6 +176,24 @@ def test_an_aborted_goal_stops_the_run_with_the_cause(tmp_path: Path) -> None:
         faults.close()
     fault = _stopped(tmp_path, run, "aborted")
     assert "aborted" in (fault.text or "") and "robot:" in err
+
+
+def test_a_goal_the_robot_never_ends_is_cancelled_and_stops_the_run(tmp_path: Path) -> None:
+    """A stuck driver keeps a goal active and never moves: the link does not wait for
+    ever, but cancels it `RESULT_GRACE_S` after the motion's end and says why."""
+    master = shared_master()
+    with sim_baxter(master):
+        faults = FaultTopic(master)
+        run = _execute(master.uri, tmp_path, 3, master.env(), ratio=0.5)
+        _wait_for(_moved(tmp_path, 1), run)
+        faults.send("hang")  # the next goal is accepted and never ends
+        sent = time.monotonic()
+        out, err = run.communicate(timeout=120)
+        waited = time.monotonic() - sent
+        faults.close()
+    fault = _stopped(tmp_path, run, "no-result")
+    assert "no result" in (fault.text or "") and "cancelled" in (fault.text or "")
+    assert RESULT_GRACE_S <= waited < 60, waited
 
 
 def test_killing_the_node_mid_trajectory_stops_the_run(tmp_path: Path) -> None:

@@ -35,10 +35,11 @@ GripperCommand = Literal["grip", "release"]
 # was disabled); `estop`: the robot is stopped (its e-stop, or a stop from software);
 # `off-goal`: a motion ended (the robot said succeeded) with a joint farther from its
 # end than `GOAL_TOLERANCE_RAD`; `gripper`: the gripper is missing, in error, or did
-# not do what it was told.
+# not do what it was told; `no-result`: the robot never said how a motion ended (its
+# action server lost the goal, or no result came long after the motion's end).
 FaultCause = Literal[
     "no-master", "no-server", "rejected", "aborted", "preempted", "silent", "master-lost",
-    "off-start", "disabled", "estop", "off-goal", "gripper",
+    "off-start", "disabled", "estop", "off-goal", "gripper", "no-result",
 ]  # fmt: skip
 # A robot that refuses to move in the state it is in: the operator must act on it
 # (enable it, release its e-stop) before a run can go on.

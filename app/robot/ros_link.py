@@ -67,6 +67,10 @@ from app.robot.ros_env import master_answers, use_ros
 SILENT_S = 1.0  # no joint state for this long: the robot (or its driver) is gone
 MASTER_CHECK_S = 0.5
 CANCEL_WAIT_S = 0.4  # a cancelled goal reports preempted within this
+# A goal with no result this long after its motion's end (and its goal time) has been
+# lost on the way: the link cancels it and says so instead of waiting for ever.
+RESULT_GRACE_S = 5.0
+LOST = 9  # actionlib's GoalStatus.LOST: the client no longer hears of the goal
 # /robot/state is a topic of its own: an e-stop that ends a goal may be said there a
 # moment after the goal's result, so an arm short of its end waits this long for why.
 STATE_LAG_S = 0.5
@@ -287,12 +291,17 @@ class RosLink:
         """Waits for the goal's end, a cancel, a robot disabled or stopped, a silent
         robot or a lost master."""
         checked = time.monotonic()
+        deadline = checked + trajectory.seconds + GOAL_TIME_TOLERANCE_S + RESULT_GRACE_S
         while True:
             fault = self._robot.fault(during=True) if self._robot is not None else None
             if fault is not None:
                 client.cancel_goal()
                 return fault.cause, fault.line
-            state = _STATES.get(int(client.get_state()))
+            status = int(client.get_state())
+            if status == LOST or time.monotonic() > deadline:
+                client.cancel_goal()
+                return "no-result", self._no_result(status == LOST, trajectory)
+            state = _STATES.get(status)
             if state == "succeeded":
                 return None, f"reached the end of {len(trajectory.points)} waypoints"
             if state == "preempted" and not self._cancel.is_set():
@@ -331,6 +340,14 @@ class RosLink:
                     client.cancel_goal()
                     return "master-lost", f"the ROS master at {self.master_uri} is gone"
             time.sleep(TICK_S)
+
+    def _no_result(self, lost: bool, trajectory: Trajectory) -> str:
+        if lost:
+            return f"the robot lost the {trajectory.arm} arm's goal: no result came for it"
+        return (
+            f"no result for the {trajectory.arm} arm's goal {RESULT_GRACE_S:.0f} s after "
+            f"its motion's end ({trajectory.seconds:.1f} s): cancelled"
+        )
 
     def _fresh(self, after: float) -> JointState | None:
         """The first joint state measured after `after` (this machine's epoch seconds; the

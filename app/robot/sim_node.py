@@ -29,7 +29,9 @@ definitions Rethink published, so a setup is checked end to end without it):
 
 Faults for tests, on `/tandem_sim/fault` (std_msgs/String): "abort" aborts the
 running goals (PATH_TOLERANCE_VIOLATED), or when none runs the next one halfway
-through; "mute" stops publishing joint states, "unmute" resumes them.
+through; "hang" makes the next goal hang, as a stuck driver's would (accepted,
+never moved, never ended until it is cancelled); "mute" stops publishing joint
+states, "unmute" resumes them.
 
 The node sets the parameter `/rethink/software_version` (1.2.0) as Baxter does,
 prints `simulated Baxter ready on <master>` once it has received its own first
@@ -107,6 +109,7 @@ class SimNode:
         self.muted = False
         self._published = 0  # joint states sent
         self.abort_next = False
+        self.hang_next = False
         self._abort_running = threading.Event()
         self._abort_taken = False  # a running goal was aborted by `_abort_running`
         self._running = 0  # goals being followed
@@ -225,15 +228,24 @@ class SimNode:
                     self._abort_running.set()
                 else:
                     self.abort_next = True
+        elif fault == "hang":
+            self.hang_next = True
         elif fault in ("mute", "unmute"):
             self.muted = fault == "mute"
         else:
-            self.ros["rospy"].logwarn("unknown fault %r: abort, mute or unmute", fault)
+            self.ros["rospy"].logwarn("unknown fault %r: abort, hang, mute or unmute", fault)
 
     # -- following a trajectory ----------------------------------------------------------
 
     def _follow(self, side: Side, goal: Any) -> None:
         server = self._servers[side]
+        with self._lock:
+            hang, self.hang_next = self.hang_next, False
+        if hang:
+            while not self.stop.is_set() and not server.is_preempt_requested():
+                self.stop.wait(self.tick_s)
+            server.set_preempted(self._result(None, "hung, then cancelled"), "hung")
+            return
         trajectory = goal.trajectory
         motion = check_motion(
             side,
