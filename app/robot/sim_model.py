@@ -13,6 +13,7 @@ gripper's endpoint pose and twist come from the URDF's forward kinematics.
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -222,6 +223,7 @@ class BaxterModel:
         kinds.update(grippers or {})
         self.grippers: dict[Side, Gripper] = {side: Gripper(kinds[side]) for side in SIDES}
         self._velocity = dict.fromkeys(self.names, 0.0)
+        self._moved_at: dict[str, float] = {}  # joints in motion: when last set (epoch s)
         joints = {**HOME_JOINTS, **(start or {})}
         outside = [n for n, v in joints.items() if not _within(self.limits[n], v)]
         if outside:
@@ -230,21 +232,44 @@ class BaxterModel:
         for side in self.grippers:
             self._place_fingers(side)
 
-    def set(self, joints: Mapping[str, float], velocity: Mapping[str, float] | None = None) -> None:
+    def set(
+        self,
+        joints: Mapping[str, float],
+        velocity: Mapping[str, float] | None = None,
+        at: float | None = None,
+    ) -> None:
+        """Puts `joints` there, moving at `velocity`, as of epoch time `at` (now)."""
         with self._lock:
+            now = time.time() if at is None else at
             for name, value in joints.items():
                 speed = (velocity or {}).get(name, 0.0)
                 pb.resetJointState(
                     self.body, self.index[name], value, speed, physicsClientId=self.client
                 )
                 self._velocity[name] = speed
+                if speed:
+                    self._moved_at[name] = now
+                else:
+                    self._moved_at.pop(name, None)
+
+    def reading(self) -> tuple[dict[str, float], dict[str, float], float | None]:
+        """Positions, velocities and when the joints in motion were put there (epoch s,
+        the oldest of them; None when none moves), read at once. A joint state is stamped
+        with that time: the arm stands at a tick's position until the next tick, which
+        comes late on a busy machine."""
+        with self._lock:
+            moved_at = min(self._moved_at.values(), default=None)
+            return self._positions(), dict(self._velocity), moved_at
 
     def positions(self) -> dict[str, float]:
         with self._lock:
-            states = pb.getJointStates(
-                self.body, [self.index[n] for n in self.names], physicsClientId=self.client
-            )
-            return {n: float(s[0]) for n, s in zip(self.names, states, strict=True)}
+            return self._positions()
+
+    def _positions(self) -> dict[str, float]:
+        states = pb.getJointStates(
+            self.body, [self.index[n] for n in self.names], physicsClientId=self.client
+        )
+        return {n: float(s[0]) for n, s in zip(self.names, states, strict=True)}
 
     def velocities(self) -> dict[str, float]:
         with self._lock:

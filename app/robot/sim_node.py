@@ -190,7 +190,7 @@ class SimNode:
 
     def _publish_joints(self) -> None:
         rospy, sensor = self.ros["rospy"], self.ros["sensor"]
-        positions, velocities = self.model.positions(), self.model.velocities()
+        positions, velocities, moved_at = self.model.reading()
         efforts = self.model.efforts()
         message = sensor.JointState(
             name=list(positions),
@@ -198,7 +198,7 @@ class SimNode:
             velocity=[velocities[n] for n in positions],
             effort=[efforts[n] for n in positions],
         )
-        message.header.stamp = rospy.Time.now()
+        message.header.stamp = rospy.Time.from_sec(moved_at) if moved_at else rospy.Time.now()
         self._joints.publish(message)
         self._published += 1
         self._publish_endpoints(message.header.stamp)
@@ -298,7 +298,7 @@ class SimNode:
         end = motion.seconds + following.limits.goal_time
         last_t: float | None = None  # when the arm was last commanded
         while True:
-            t = time.monotonic() - began
+            t, at = time.monotonic() - began, time.time()  # the same moment on both clocks
             if self._interrupted(server, motion, t, following.abort_at):
                 return
             if t >= 0.0 and (t >= end or not self.robot.moving_allowed()):
@@ -317,7 +317,7 @@ class SimNode:
                     text = f"{off[0]} was {off[1]:+.4f} rad off its path {t:.2f} s in"
                     server.set_aborted(self._result("PATH_TOLERANCE_VIOLATED", text), text)
                     return
-                self.model.set(command, velocity)
+                self.model.set(command, velocity, at)
                 last_t = t
             self.stop.wait(self.tick_s)
         self._hold(motion)
