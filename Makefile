@@ -44,11 +44,11 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(BIN)/tandem dashboard --scenario static/scenarios/default.toml
 
-# One test process more than the cores: most tests wait (a page, real-time audio, the
-# simulated robot, subprocesses), so a third process on two cores cut the suite's wall
-# time from 1,521 to 1,041 s; a fourth (865 s) left the simulated robot's real-time
-# tests too little CPU (docs/testing.md).
-TEST_WORKERS ?= $(shell echo $$(( $$(nproc) + 1 )))
+# Two test processes more than the cores: most tests wait (a page, real-time audio, the
+# simulated robot, subprocesses), so on two cores three processes cut the suite's wall
+# time from 1,521 to 961 s and four to 803-806 s, the CPU then busy 94 % of the run;
+# a fifth only loads it more (849 s). See docs/testing.md.
+TEST_WORKERS ?= $(shell echo $$(( $$(nproc) + 2 )))
 
 test: $(STAMP) system
 	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile --durations=25
