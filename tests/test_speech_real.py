@@ -107,8 +107,9 @@ def test_real_non_answers_refused_and_real_answers_taken(clips: list[RealClip]) 
 
     table, rival_tuning, rival_held_out = real_report(sample, by("on"))
     print("\nrival words on:\n" + table + "\n" + "\n".join(rival_tuning.misses))
-    # All clips: 84.9 % and 81.2 % right, none wrong, 94.6 % and 95.9 % refused.
+    # All clips: 87.2 % and 90.6 % right (every answer taken without them), none wrong,
+    # 93.9 % and 96.4 % refused. The sample holds every answer: none may be lost.
     for score, before in ((rival_tuning, tuning), (rival_held_out, held_out)):
         assert score.wrong == 0 and score.mixed_wrong <= before.mixed_wrong
         assert score.refused_rate >= 0.9 and score.refused_rate > before.refused_rate + 0.1
-        assert score.right_rate >= 0.78
+        assert score.right_rate >= before.right_rate - 0.02
