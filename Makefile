@@ -51,11 +51,12 @@ bytecode: $(STAMP)
 run: $(STAMP) bytecode
 	$(BIN)/tandem dashboard --scenario static/scenarios/default.toml
 
-# Two test processes more than the cores: most tests wait (a page, real-time audio, the
-# simulated robot, subprocesses), so on two cores three processes cut the suite's wall
-# time from 1,521 to 961 s and four to 803-806 s, the CPU then busy 94 % of the run;
-# a fifth only loads it more (849 s). See docs/testing.md.
-TEST_WORKERS ?= $(shell echo $$(( $$(nproc) + 2 )))
+# One test process more than the cores: most tests wait (a page, real-time audio, the
+# simulated robot, subprocesses), so three processes on two cores cut the suite's wall
+# time from 1,521 to 961-971 s on a fresh clone. Four were quicker in a checkout
+# (803-806 s) but not on fresh clones (1,030 s; 909 s with four tests failing under the
+# load), with the CPU busy 94-99 % of the run (docs/testing.md).
+TEST_WORKERS ?= $(shell echo $$(( $$(nproc) + 1 )))
 
 test: $(STAMP) system bytecode
 	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile --durations=25
