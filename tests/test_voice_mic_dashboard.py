@@ -79,8 +79,8 @@ def _robot_quiet(device: SoundServer) -> bool:
 
 def test_the_dashboards_microphone_hears_answers_and_survives_an_unplugged_device(
     browser: Browser,
-    microphone: SoundServer,
-    tmp_path: Path,  # noqa: F811
+    microphone: SoundServer,  # noqa: F811 (the fixture imported above)
+    tmp_path: Path,
 ) -> None:
     settings = DashboardSettings(workers=1, cache_dir=str(tmp_path / "cache"),
                                  data_dir=str(tmp_path / "data"), load_models=False,
