@@ -28,10 +28,11 @@ definitions Rethink published, so a setup is checked end to end without it):
   (preempted).
 
 Faults for tests, on `/tandem_sim/fault` (std_msgs/String): "abort" aborts the
-running goals (PATH_TOLERANCE_VIOLATED), or when none runs the next one halfway
-through; "hang" makes the next goal hang, as a stuck driver's would (accepted,
-never moved, never ended until it is cancelled); "mute" stops publishing joint
-states, "unmute" resumes them.
+running goals halfway through (PATH_TOLERANCE_VIOLATED; at once when past their
+half), or when none runs the next one (halfway, whenever the fault arrives: the
+arm has always left its start); "hang" makes the next goal hang, as a stuck
+driver's would (accepted, never moved, never ended until it is cancelled);
+"mute" stops publishing joint states, "unmute" resumes them.
 
 The node sets the parameter `/rethink/software_version` (1.2.0) as Baxter does,
 prints `simulated Baxter ready on <master>` once it has received its own first
@@ -351,7 +352,8 @@ class SimNode:
             text = f"stopped {max(t, 0.0):.2f} s into {motion.seconds:.2f} s"
             server.set_preempted(self._result(None, text), text)
             return True
-        if self._abort_running.is_set() or (abort_at is not None and t >= abort_at):
+        running_abort = self._abort_running.is_set() and t >= motion.seconds / 2
+        if running_abort or (abort_at is not None and t >= abort_at):
             with self._lock:
                 self._abort_taken = self._abort_taken or self._abort_running.is_set()
             self._hold(motion)
