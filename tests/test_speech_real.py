@@ -15,7 +15,7 @@ from speech.audio import RATE, Recording
 from speech.heard import Heard
 from speech.real_evaluation import as_heard, real_report
 from speech.real_speech import PACKAGES, RealClip, cache_folder, fetch, real_clips
-from speech.sphinx import RIVAL_THRESHOLDS, SphinxRecognizer
+from speech.sphinx import SphinxRecognizer
 from speech.voice_activity import activity
 
 # Every clip would take ~5 minutes on two shared cores; each answer and every
@@ -82,9 +82,9 @@ def _both_ways(recognizer: SphinxRecognizer, clips: list[RealClip]) -> dict[str,
 def test_real_non_answers_refused_and_real_answers_taken(clips: list[RealClip]) -> None:
     others = [clip for clip in clips if clip.kind == "other"]
     sample = [clip for clip in clips if clip.kind != "other"] + others[::NON_ANSWER_STRIDE]
-    recognizer = SphinxRecognizer("en-us", thresholds=RIVAL_THRESHOLDS)
+    recognizer = SphinxRecognizer("en-us")  # the default: check 6 on
     heard = _both_ways(recognizer, sample)
-    # The helper hears as the recogniser does, check 6 on and off.
+    # The helper hears as the recogniser does.
     for clip in sample[:: len(sample) // 6]:
         on = recognizer.recognize_recording(as_heard(clip))
         assert on.meaning == heard[f"on:{clip.path}"].meaning, clip.path
@@ -93,23 +93,25 @@ def test_real_non_answers_refused_and_real_answers_taken(clips: list[RealClip]) 
         return lambda recording: heard[f"{mode}:{recording.origin}"]
 
     table, tuning, held_out = real_report(sample, by("off"))
-    print("\nrival words off (the default):\n" + table + "\n" + "\n".join(tuning.misses))
+    print("\nwithout the rival words:\n" + table + "\n" + "\n".join(tuning.misses))
     assert "held-out answers" in table and "held-out non-answers" in table
     assert tuning.others >= 30 and held_out.others >= 30
     assert held_out.answers >= 30 and tuning.answers >= 80
     # Measured on all 2357 clips (`python -m speech.bench`): 87.2 % and 90.6 % of the
     # answers right, 3.5 % and 0 wrong, 72.3 % and 72.9 % of the non-answers refused
-    # (tuning, held-out); the targets (90 %, 1 %, 95 %) are not reached.
+    # (tuning, held-out): a quarter of real non-answers taken.
     for score in (tuning, held_out):
         assert score.right_rate >= 0.83
         assert score.wrong_rate <= 0.05
         assert score.refused_rate >= 0.65
 
     table, rival_tuning, rival_held_out = real_report(sample, by("on"))
-    print("\nrival words on:\n" + table + "\n" + "\n".join(rival_tuning.misses))
+    print("\nthe default, rival words on:\n" + table + "\n" + "\n".join(rival_tuning.misses))
     # All clips: 87.2 % and 90.6 % right (every answer taken without them), none wrong,
-    # 93.9 % and 96.4 % refused. The sample holds every answer: none may be lost.
+    # 94.6 % and 96.6 % refused. The sample holds every answer: none may be lost.
     for score, before in ((rival_tuning, tuning), (rival_held_out, held_out)):
         assert score.wrong == 0 and score.mixed_wrong <= before.mixed_wrong
         assert score.refused_rate >= 0.9 and score.refused_rate > before.refused_rate + 0.1
         assert score.right_rate >= before.right_rate - 0.02
+    # The targets on the voices the thresholds never heard.
+    assert rival_held_out.right_rate >= 0.9 and rival_held_out.refused_rate >= 0.95
