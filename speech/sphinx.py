@@ -18,6 +18,9 @@ heard fits the sound (`Measures`) and accepts only when six checks pass:
    (pocketsphinx's allphone search, any sequence of English phones) scores the
    best the model can do with no grammar at all; the answers decoding may fall
    at most `min_phone_gap` per speech frame behind it, else "low confidence".
+   Only where check 6 is off (`WITHOUT_RIVALS`, other words than the
+   language's answers): beside check 6 it refused 0.1-0.2 % more of the real
+   non-answers, cost 1-1.3 % of espeak-ng's answers and 40 ms an utterance.
 5. **Coverage**: the answer words (widened by `coverage_pad_s`) must cover
    `min_coverage` of the speech frames, else "out of grammar": a sentence
    leaves most of its speech to the grammar's silence.
@@ -36,8 +39,8 @@ Checks 1-5 were chosen on seeds 7, 101, 33, 55 of
 `speech.evaluation.english_trials` (`TUNING_SEEDS`; 624 answers, 108
 non-answers: 92.9 % right, 0 wrong, 94.4 % of non-answers refused) and then
 checked, unchanged, on 202, 303, 404 (`HELD_OUT_SEEDS`: 468 answers, 81
-non-answers: 91.2 %, 0 wrong, 95.1 %). With check 6: 92.9 %, 0, 98.1 % and
-90.2 %, 0, 96.3 %. Tried first and dropped: a second
+non-answers: 91.2 %, 0 wrong, 95.1 %). The default, check 6 on and check 4
+off: 93.8 %, 0, 98.1 % and 91.5 %, 0, 96.3 %. Tried first and dropped: a second
 decoding with ~80 distractor words beside the answers (the loop broke
 multi-word answers into an answer and distractors, "no thanks" as "nope turn
 this": 66 % of the answers taken on the tuning seeds, with the first answer
@@ -55,16 +58,18 @@ more answers; 1000 words at 1e-9, leaving out words two phones from an answer
 and the 23 that still took espeak-ng's answers (`SYNTHETIC_SOUND_ALIKES`). It
 keeps every real answer the other checks take (87.2 % and 90.6 % right on the
 tuning and held-out groups), takes none wrong (3 of 86 without: Hedgewars
-"Nooo"s heard as "go ahead" or "yeah") and refuses 94.6 % and 96.6 % of the
-real non-answers (72.3 % and 72.9 % without). On espeak-ng's held-out seeds it
-costs 1 % of the answers (90.2 % right, from 91.2 %). Before the sound-alikes
-were left out, it cost 4-5 % of espeak-ng's answers, and was off by default.
+"Nooo"s heard as "go ahead" or "yeah") and refuses 94.5 % and 96.4 % of the
+real non-answers (72.3 % and 72.9 % without); with check 4 off, espeak-ng's
+held-out answers are 91.5 % right (91.2 % with checks 1-5). Before the
+sound-alikes were left out, it cost 4-5 % of espeak-ng's answers, and was off
+by default.
 
 Every utterance is decoded whole at `finish` (batch normalisation of the
 cepstra, noise statistics reset first), so a clip means the same whatever
-was decoded before it; the two decodings take 74 ms median (`speech.bench`,
-two shared cores), most of it the phone loop, and the rival words about 50 ms
-more on an utterance the other checks accept. pocketsphinx
+was decoded before it. Without check 6, the two decodings took 74 ms median
+(`speech.bench`, two shared cores), most of it the phone loop; the rival
+words' decoding takes about 50 ms on an utterance the other checks accept,
+and the phone loop is left out beside it. pocketsphinx
 runs one search at a time on a decoder, so a lock lets threads share one
 recogniser.
 """
@@ -177,6 +182,9 @@ class SphinxRecognizer:
             grammar = rival_grammar(answers, rivals, self.thresholds.rival_weight)
             self._decoder.add_jsgf_string("rivals", grammar)
         self._rivals = bool(rivals)
+        # Check 4 only where check 6 is off: beside the rivals it refused almost
+        # nothing more and cost 40 ms an utterance (see the module docstring).
+        self._phone_loop = not self._rivals
         phones = pocketsphinx.get_model_path("en-us/en-us-phone.lm.bin")
         self._decoder.add_allphone_file("phones", phones)
 
@@ -241,11 +249,12 @@ class SphinxRecognizer:
         return float((covered & active).sum()) / max(1, int(active.sum()))
 
     def measure(self, audio: Samples) -> Measures:
-        """Both decodings of `audio` (16 kHz) and what the checks compare."""
+        """The decodings of `audio` (16 kHz) and what the checks compare (the phone
+        loop only where check 4 runs; `phone_gap` is -inf without it)."""
         speech = activity(audio, RATE)
         with self._lock:
             path = self._decode("answers", audio)
-            phones = self._decode("phones", audio)
+            phones = self._decode("phones", audio) if self._phone_loop else []
         words = tuple(w for w in path if w.word in self._answer_words)
         frames = sum(round((w.end_s - w.start_s) / SPHINX_FRAME_S) for w in words)
         word_score = sum(w.score for w in words) / frames if frames else -math.inf
@@ -275,7 +284,8 @@ class SphinxRecognizer:
         if len(meanings) != 1:
             return heard(None, "ambiguous")
         meaning = next(iter(meanings))
-        if measures.word_score < limits.min_word_score or measures.phone_gap < limits.min_phone_gap:
+        trails = self._phone_loop and measures.phone_gap < limits.min_phone_gap
+        if measures.word_score < limits.min_word_score or trails:
             return heard(None, "low confidence")
         if measures.coverage < limits.min_coverage:
             return heard(None, "out of grammar")
