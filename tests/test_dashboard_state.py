@@ -109,9 +109,10 @@ def test_buttons_and_waits_say_what_is_happening(page: Page, dashboard: Dashboar
     wait_for(lambda: execution.clicks is not None and execution.clicks.pending() is not None, 30)
     offer = execution.clicks.pending() if execution.clicks else None
     assert offer is not None
-    # The question waits: the tree and the selection show the asking node.
-    assert dashboard.selected == offer.node_id
-    assert dashboard.tree.marks.current == offer.node_id
+    # The question waits: the tree and the selection show the asking node (they follow
+    # the executor's event, which may come a moment after the offer).
+    node = offer.node_id
+    wait_for(lambda: dashboard.selected == node and dashboard.tree.marks.current == node, 10)
     page.get_by_text("waiting for an answer", exact=False).first.wait_for()
     asking = page.locator(f'svg.tandem-tree [data-node="{offer.node_id}"] rect[stroke="#ff7f0e"]')
     asking.wait_for()
