@@ -16,7 +16,7 @@ where the yes words stand and the answers where the no words do: an utterance
 that grammar takes as an answer is no command. A stop is kept unless it is
 taken as an answer (stopping is always safe); a continue only when it is
 taken as a command. Measured on the same clips: 34 of those 37 answers were
-given back (the other 3, "not now", stay a stop, which only pauses); of the
+given back (the other 3, "not now", stayed a stop; it is no answer any more); of the
 commands, stop was confirmed 11 times in 12, wait, continue and resume 12 in
 12. In Korean the check confirmed every command the grammar took (its
 distractors already hold the answers; one voice's 맞아 still sounds like

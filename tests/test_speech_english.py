@@ -53,7 +53,7 @@ def test_english_is_heard_offline_by_pocketsphinx_unless_a_vosk_model_is_given(
 
 
 def test_accuracy_on_synthetic_english_answers_and_non_answers(recognizer: Recognizer) -> None:
-    trials = english_trials(per_phrase=4, seed=7)
+    trials = english_trials(per_phrase=5, seed=7)
     result, misses = score(trials, recognizer.recognize_recording)
     print("\n" + result.table() + "\n" + "\n".join(misses))
     assert result.answers >= 50 and result.others >= 25
@@ -84,9 +84,9 @@ def test_each_answer_phrase_is_taken_with_its_meaning_and_never_wrong(
                 assert " ".join(heard.words) in (*ENGLISH.yes_words, *ENGLISH.no_words)
             else:
                 assert heard.reason is not None
-        assert right >= 2, phrase  # measured: 2-5 of 5 ("not now" 2, "ok" 3)
+        assert right >= 2, phrase  # measured: 3-5 of 5 ("okay", "ok", "go ahead" 3)
         taken += right
-    assert taken >= 0.8 * 5 * (len(ENGLISH.yes_words) + len(ENGLISH.no_words))  # 55 of 65
+    assert taken >= 0.8 * 5 * (len(ENGLISH.yes_words) + len(ENGLISH.no_words))  # 52 of 60
 
 
 def test_non_answers_are_refused_with_their_reason(recognizer: Recognizer) -> None:

@@ -6,17 +6,20 @@ answers said over a microphone's noise floor for commands, and the question
 went unanswered: through this test before `Commands.confirms`, "no" was taken
 as "continue" by 5 voices of 6, "yes please" by 5, "nope" by 2, and "okay",
 "ok", "sure" and "not now" as a stop now and then (56 of 78 English answers
-right; now 76). Each word of the grammar, said by six seeded espeak-ng voices
+right; then 76). Each word of the grammar, said by six seeded espeak-ng voices
 (variant, speed, pitch) into a -60 dBFS noise floor, goes through the live ear
 while a question waits, block by block as a device hands it over (without
 waiting for the clock).
 
-Not yet held, and so not asserted (the recognisers', measured here): English
-"not now" is right for 4 voices of 6 (pocketsphinx hears its "not" as silence
-and "now" as "no"; the other two take it as a stop, which only pauses); Korean
-됐어 for 3 (refused for low confidence, or out of grammar by vosk's distractor
-decoding, with the noise floor only: in digital silence all 6 are right) and
-맞아 for 5 (one voice's sounds like 멈춰 in every grammar).
+Two words were dropped from the answers by what this test heard (and a simulated
+room's human, whose "not now" was refused as out of grammar): English "not now"
+(pocketsphinx hears its "not" as silence and "now" as "no"; two voices' were a
+stop) and Korean 됐어 (refused for 3 voices of 6, once as out of grammar). Now
+every English word is right by all six voices (72 of 72). Not yet held, and so
+not asserted as right (the recognisers', measured here): Korean 맞아 for 5 (one
+voice's sounds like 멈춰 in every grammar, a stop, which only pauses) and 아니야
+for 5 (one refused for low confidence); no word of either language is refused
+as out of grammar.
 """
 
 from __future__ import annotations
@@ -102,8 +105,7 @@ def outcomes_of(code: str) -> dict[str, Counter[str]]:
 
 
 @pytest.mark.parametrize(("code", "always"), [
-    ("en-us", ("yes", "yeah", "yep", "yes please", "sure", "okay", "ok", "go ahead", "no",
-               "nope", "no thanks", "no thank you")),
+    ("en-us", (*language("en-us").yes_words, *language("en-us").no_words)),
     ("ko", ("네", "좋아요", "아니요")),
 ])  # fmt: skip
 def test_every_answer_word_is_heard_as_an_answer_by_several_voices(
@@ -117,6 +119,5 @@ def test_every_answer_word_is_heard_as_an_answer_by_several_voices(
     # "no" (the word once refused in a live run) and the words the recogniser holds: by
     # every voice.
     assert all(outcomes[words]["right"] == len(VOICES) for words in always), table
-    if code == "en-us":
-        # No English answer word is refused as out of grammar by any voice.
-        assert not [w for w, counts in outcomes.items() if "out of grammar" in counts], table
+    # No answer word of either language is refused as out of grammar by any voice.
+    assert not [w for w, counts in outcomes.items() if "out of grammar" in counts], table
