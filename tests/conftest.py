@@ -97,27 +97,65 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 # pytest 9.2, which keeps its ids apart from the `_nodeid` xdist rewrites; a file's
 # tests were then split over both workers, each making its own server.)
 _RAY = re.compile(r"""^\w+ = pytest\.importorskip\("ray"|^import ray|^from ray""", re.M)
+# Files that mostly wait on real time (the simulated robot's motions, speech played
+# and heard in real time) and drive no page: a few CPU-seconds a minute of wall.
+_WAITS = re.compile(
+    r"^from (tests\.robot_graph|app\.responses\.voice_room|speech\.microphone"
+    r"|tests\.audio_device) import|^from speech\.sources import .*\bSimulatedRoom\b",
+    re.M,
+)
+_PAGE = re.compile(r"^from playwright|^import playwright|\bpage: Page\b", re.M)
+
+
+def _scope_of(root: Path, path: str) -> tuple[str, bool]:
+    """A file's scope (every file on Ray shares one) and whether it mostly waits."""
+    source = root / path
+    text = source.read_text() if source.suffix == ".py" else ""
+    waits = _WAITS.search(text) is not None and _PAGE.search(text) is None
+    return ("cluster" if _RAY.search(text) else path), waits
 
 
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
     from xdist.scheduler import LoadFileScheduling
 
-    root, scopes = config.rootpath, {}
+    root, scopes, waiting = config.rootpath, {}, set()
 
     # Files are handed out in the order collected (heaviest first), not by their count
     # of tests.
     config.option.loadscopereorder = False
 
     class FileScheduling(LoadFileScheduling):  # type: ignore[misc]
+        """With three workers or more, the last is a lane for the files that wait:
+        it takes them heaviest first, while the others take the files that compute
+        (and the waiting ones left at the end, lightest first). Waiting files then
+        overlap computing ones instead of leaving the cores idle together."""
+
         def _split_scope(self, nodeid: str) -> str:
             path = nodeid.split("::", 1)[0]
             if path not in scopes:
-                source = root / path
-                on_ray = source.suffix == ".py" and _RAY.search(source.read_text()) is not None
-                scopes[path] = "cluster" if on_ray else path
+                scopes[path], waits = _scope_of(root, path)
+                if waits:
+                    waiting.add(scopes[path])
             return scopes[path]
 
+        def _assign_work_unit(self, node: Any) -> None:
+            queue = list(self.workqueue)
+            lane = len(self.nodes) >= 3 and node is max(self.nodes, key=_worker_number)
+            mine = [s for s in queue if (s in waiting) == lane]
+            if lane:
+                # The lane's own first; then the lightest file that computes.
+                scope = mine[0] if mine else queue[-1]
+            else:
+                others = [s for s in queue if s in waiting]
+                scope = mine[0] if mine else others[-1]
+            self.workqueue.move_to_end(scope, last=False)
+            super()._assign_work_unit(node)
+
     return FileScheduling(config, log)
+
+
+def _worker_number(node: Any) -> int:
+    return int(str(node.gateway.id).removeprefix("gw"))
 
 
 _spent: dict[str, float] = {}

@@ -170,7 +170,8 @@ class BranchPlanner:
         its steps is optimal for the horizon too (`solver.STEP_PRIORITY`); other
         plans are looked for again in the horizon's program. A branch that needs
         more steps than the horizon is retried with longer ones before it is
-        called a dead end.
+        called a dead end: the longest first (the dead end's proof), then those
+        between (the plan of the shortest that has one).
 
         `horizon_first` gives the same answer: the horizon's program holds every plan
         a step short, so where its optimal plan is longer, or costs more than its
@@ -188,12 +189,22 @@ class BranchPlanner:
                 short = self.solver(horizon - 1).plan(start, forbid)
                 if short is not None and short.steps_cost_only:
                     return short, horizon
-        while True:
-            found = known if looked else self.solver(horizon).plan(start, forbid)
-            looked = False
-            if found is not None or horizon * 2 > self.problem.horizon * MAX_HORIZON_FACTOR:
-                return found, horizon
+        found = known if looked else self.solver(horizon).plan(start, forbid)
+        longest = self.problem.horizon * MAX_HORIZON_FACTOR
+        if found is not None or horizon >= longest:
+            return found, horizon
+        # Most branches the horizon cannot plan are dead ends, proven only by the
+        # longest horizon: it is asked first (a plan within fewer steps is a plan
+        # within it too), and the horizons between only where it finds one.
+        last = self.solver(longest).plan(start, forbid)
+        if last is None:
+            return None, longest
+        while horizon * 2 < longest:
             horizon *= 2
+            found = self.solver(horizon).plan(start, forbid)
+            if found is not None:
+                return found, horizon
+        return last, longest
 
 
 def _steps_alone(plan: SequentialPlan, steps: int) -> bool:
