@@ -157,15 +157,34 @@ def test_mute_stops_the_audio_and_a_missing_model_keeps_the_clicks(
     assert "No voice answers" in speech.heard.content and "\n" not in speech.heard.content
 
 
-def _answer_sensing(page: Page, dashboard: Dashboard) -> None:
-    """Clicks the pending sensing node's first choice (the voice answers only questions)."""
+def _answer_sensing(
+    page: Page, dashboard: Dashboard, fell_back: frozenset[str] = frozenset()
+) -> None:
+    """Clicks the pending offer's last choice where the voice does not answer: a sensing
+    node, or a question whose voice answers were refused (`fell_back`: the fallback asks
+    for a click, and a person gives it)."""
     clicks, plan = dashboard.execution.clicks, dashboard.plan
     offer = clicks.pending() if clicks is not None else None
-    if offer is not None and plan is not None and plan.nodes[offer.node_id].kind == "sensing":
+    if offer is None or plan is None:
+        return
+    if plan.nodes[offer.node_id].kind == "sensing" or offer.node_id in fell_back:
         try:
             page.get_by_role("button", name=offer.words[-1], exact=True).click(timeout=3000)
         except Exception:
             pass  # the buttons were redrawn meanwhile: look again
+
+
+def _fell_back(executor: Executor) -> frozenset[str]:
+    """The nodes whose question went to the fallback, every spoken answer refused."""
+    return frozenset(e.node for e in executor.events if e.kind == "fell-back")
+
+
+def _told(executor: Executor) -> str:
+    """The run's events, a line each: what a failure says (the whole list's repr is cut)."""
+    return "\n".join(
+        f"{e.seq} {e.node} {e.kind} {e.action} -> {e.outcome} by {e.source}: {e.text}"
+        for e in executor.events
+    )
 
 
 def _say_until(page: Page, dashboard: Dashboard, button: str, paused: bool) -> None:
@@ -200,11 +219,18 @@ def test_in_the_simulated_room_the_humans_stop_and_continue_pause_and_resume(
     _say_until(page, dashboard, "Human says continue", paused=False)
     deadline = time.monotonic() + 180
     while not executor.done and time.monotonic() < deadline:
-        _answer_sensing(page, dashboard)
+        _answer_sensing(page, dashboard, _fell_back(executor))
         time.sleep(0.05)
-    assert executor.result == "goal", executor.events
+    assert executor.result == "goal", _told(executor)
     turns = [(e.kind, e.source) for e in executor.events if e.kind in ("paused", "resumed")]
     assert turns[:2] == [("paused", "voice"), ("resumed", "voice")], turns
+    # Every question is heard by voice and answered by it, or, where each spoken answer
+    # was refused (never taken wrong), by the click the fallback asks for. (How often
+    # Korean answers are refused is measured apart, `python -m speech.bench`: a branch
+    # of one question falls back now and then, more often on a loaded machine.)
     asked = [e for e in executor.events if e.kind == "communication" and e.outcome]
-    assert asked and all(e.source == "voice" for e in asked), [e.source for e in asked]
+    spoken = {e.node for e in executor.events if e.kind == "human" and e.source == "voice"}
+    fell_back = _fell_back(executor)
+    assert asked and all(e.node in spoken for e in asked), _told(executor)
+    assert all(e.source == "voice" or e.node in fell_back for e in asked), _told(executor)
     wait_for(lambda: stop.is_disabled(), 10)  # the execution ended
