@@ -17,6 +17,7 @@ from PIL import Image
 
 pytest.importorskip("playwright.sync_api")
 from playwright.sync_api import Browser, Page, expect  # noqa: E402
+from playwright.sync_api import TimeoutError as PlaywrightTimeoutError  # noqa: E402
 
 from app.dashboard.server import Dashboard, DashboardSettings  # noqa: E402
 from app.dashboard.tree_svg import CURRENT, PATH  # noqa: E402
@@ -91,9 +92,19 @@ def opened(browser: Browser, dashboard: Dashboard, height: int = 1000) -> Iterat
 
 
 def choose(page: Page, label: str, option: str) -> None:
-    """Picks `option` in the dropdown labelled `label`."""
+    """Picks `option` in the dropdown labelled `label`, opening it again if it closed
+    before the click (the panel redraws its fields as a scenario loads), as a person
+    would; the last try fails with playwright's account of what it waited for."""
+    wanted = page.get_by_role("option", name=option, exact=True)
+    for _ in range(3):
+        field(page, label).click()  # type: ignore[attr-defined]
+        try:
+            wanted.click(timeout=5000)
+            return
+        except PlaywrightTimeoutError:
+            page.keyboard.press("Escape")  # a dropdown still open closes: the next click opens it
     field(page, label).click()  # type: ignore[attr-defined]
-    page.get_by_role("option", name=option, exact=True).click()
+    wanted.click()
 
 
 def plan_shown(dashboard: Dashboard) -> Callable[[], bool]:
