@@ -104,6 +104,9 @@ _WAITS = re.compile(
     r"|tests\.audio_device) import|^from speech\.sources import .*\bSimulatedRoom\b",
     re.M,
 )
+# The lane is made from this many workers on (`make test TEST_WORKERS=4` on two cores):
+# with three, two workers computing are too few for the suite.
+LANE_FROM = 4
 _PAGE = re.compile(r"^from playwright|^import playwright|\bpage: Page\b", re.M)
 
 
@@ -125,7 +128,7 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
     config.option.loadscopereorder = False
 
     class FileScheduling(LoadFileScheduling):  # type: ignore[misc]
-        """With three workers or more, the last is a lane for the files that wait:
+        """With `LANE_FROM` workers or more, the last is a lane for the files that wait:
         it takes them heaviest first, while the others take the files that compute
         (and the waiting ones left at the end, lightest first). Waiting files then
         overlap computing ones instead of leaving the cores idle together."""
@@ -139,8 +142,11 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
             return scopes[path]
 
         def _assign_work_unit(self, node: Any) -> None:
+            if len(self.nodes) < LANE_FROM:  # no lane: every file in the order collected
+                super()._assign_work_unit(node)
+                return
             queue = list(self.workqueue)
-            lane = len(self.nodes) >= 3 and node is max(self.nodes, key=_worker_number)
+            lane = node is max(self.nodes, key=_worker_number)
             mine = [s for s in queue if (s in waiting) == lane]
             if lane:
                 # The lane's own first; then the lightest file that computes.
