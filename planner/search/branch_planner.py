@@ -170,8 +170,9 @@ class BranchPlanner:
         its steps is optimal for the horizon too (`solver.STEP_PRIORITY`); other
         plans are looked for again in the horizon's program. A branch that needs
         more steps than the horizon is retried with longer ones before it is
-        called a dead end: the longest first (the dead end's proof), then those
-        between (the plan of the shortest that has one).
+        called a dead end: twice the horizon, then the longest (the dead end's
+        proof; grounded only for branches that need it), then those between (the
+        plan of the shortest that has one).
 
         `horizon_first` gives the same answer: the horizon's program holds every plan
         a step short, so where its optimal plan is longer, or costs more than its
@@ -191,11 +192,14 @@ class BranchPlanner:
                     return short, horizon
         found = known if looked else self.solver(horizon).plan(start, forbid)
         longest = self.problem.horizon * MAX_HORIZON_FACTOR
+        if found is None and horizon < longest:
+            horizon *= 2  # twice the horizon: the longest only where this finds none
+            found = self.solver(horizon).plan(start, forbid)
         if found is not None or horizon >= longest:
             return found, horizon
-        # Most branches the horizon cannot plan are dead ends, proven only by the
-        # longest horizon: it is asked first (a plan within fewer steps is a plan
-        # within it too), and the horizons between only where it finds one.
+        # Most branches two horizons cannot plan are dead ends, proven only by the
+        # longest: it is asked next (a plan within fewer steps is a plan within it
+        # too), and the horizons between only where it finds one.
         last = self.solver(longest).plan(start, forbid)
         if last is None:
             return None, longest
