@@ -128,17 +128,21 @@ def _exported_joint_states_are_the_robots(data: Path) -> None:
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     _, events = _events(data)
-    expected = [
-        q for e in events if e.evidence and e.evidence.robot for _, q in e.evidence.robot.states
-    ]
+    robot_events = [e for e in events if e.evidence and e.evidence.robot]
+    expected = [(q, e) for e in robot_events for _, q in e.evidence.robot.states]  # type: ignore[union-attr]
     with out.open("rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         seen = [
-            tuple(m.position)
-            for _, channel, _, m in reader.iter_decoded_messages()
+            (tuple(m.position), message.log_time / 1e9)
+            for _, channel, message, m in reader.iter_decoded_messages()
             if channel.topic == "/joint_states"
         ]
-    assert seen == [tuple(q) for q in expected] and len(seen) > 10
+    assert [q for q, _ in seen] == [tuple(q) for q, _ in expected] and len(seen) > 10
+    # Each state at its time: within the step that made it (sent after the step began,
+    # seen before it ended), however long planning the way to the motion's start took.
+    for (_, t), (_, event) in zip(seen, expected, strict=True):
+        assert event.start is not None and event.end is not None
+        assert event.start - 1e-3 <= t <= event.end + 1e-3
 
 
 def test_no_master_at_start_is_one_line_and_exit_2(tmp_path: Path) -> None:
@@ -257,7 +261,7 @@ def test_pause_stops_the_arm_at_once_and_resume_finishes_the_motion() -> None:
             assert time.monotonic() - began < 30
             time.sleep(0.02)
         executor.pause()
-        paused_at = time.monotonic()
+        paused_at, paused_wall = time.monotonic(), time.time()
         time.sleep(1.5)
         assert not any(e.kind == "actuation" for e in events)  # the motion did not end
         stopped_after = moving[-1] - paused_at
@@ -270,7 +274,13 @@ def test_pause_stops_the_arm_at_once_and_resume_finishes_the_motion() -> None:
     assert result == "goal"
     first = next(e for e in events if e.kind == "actuation")
     assert first.evidence is not None and first.evidence.robot is not None
-    assert first.evidence.robot.off_rad <= REACHED_RAD  # resumed to the motion's end
+    robot = first.evidence.robot
+    assert robot.off_rad <= REACHED_RAD  # resumed to the motion's end
+    # The states stored are the whole motion's, before the pause and after it, timed
+    # from the goal first sent.
+    times = [t for t, _ in robot.states]
+    assert robot.began is not None and times == sorted(times)
+    assert robot.began + times[0] < paused_wall < robot.began + times[-1] - 1.5
 
 
 def test_retry_after_an_aborted_goal_goes_back_to_the_start_and_reaches_the_goal() -> None:

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from app.execution.robot_drive import arrived
+from app.execution.robot_drive import arrived, joined
 from app.execution.robot_link import GOAL_TOLERANCE_RAD, Followed, off_goal
 from app.robot.link_network import advertised_line, choose_address
 from planner.plan.model import Motion
@@ -66,6 +66,17 @@ def test_a_motion_the_robot_calls_done_but_short_of_its_end_is_an_off_goal_fault
     assert arrived(motion, Followed(None, "", within)).ok
     missing = {k: v for k, v in end.items() if k != "left_w2"}
     assert off_goal(missing, end) is not None  # a joint the robot did not report
+
+
+def test_a_motion_sent_again_after_pauses_keeps_every_goals_states_on_one_clock() -> None:
+    a, b = (0.0,) * 7, (0.1,) * 7
+    paused = Followed("preempted", "cancelled", {}, ((0.0, a), (0.4, a)), 1000.0)
+    refused = Followed("disabled", "the robot is disabled", {})  # never sent
+    resumed = Followed(None, "reached the end of 2 waypoints", {}, ((0.1, b), (0.9, b)), 1002.5)
+    whole = joined([paused, refused, resumed])
+    assert whole.ok and whole.began == 1000.0 and whole.detail == resumed.detail
+    assert whole.samples == ((0.0, a), (0.4, a), (2.6, b), (3.4, b))
+    assert joined([resumed]) is resumed
 
 
 @pytest.mark.skipif(not ros_installed(), reason="ROS 1 is not installed: make robot")

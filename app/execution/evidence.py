@@ -144,9 +144,11 @@ class RobotMotion:
 
     `link` names the backend (`ros`); `reached` is the arm's last joint state;
     `off_rad` its largest joint difference from the plan's end of the motion;
-    `states` the arm's joint states along the motion (seconds from its start,
-    positions in `joints`' order; thinned); `to_start` whether a planned motion
-    to the plan's start came first; `cause`/`detail` a fault's (None when reached).
+    `states` the arm's joint states along the motion (seconds from `began`,
+    positions in `joints`' order; thinned); `began` the wall-clock time the robot was
+    sent the motion (None in sessions stored before it was kept: their states count
+    from the step's start); `to_start` whether a planned motion to the plan's start
+    came first; `cause`/`detail` a fault's (None when reached).
     """
 
     link: str
@@ -158,6 +160,7 @@ class RobotMotion:
     to_start: bool = False
     cause: str | None = None
     detail: str | None = None
+    began: float | None = None
 
 
 @dataclass(frozen=True)
@@ -317,6 +320,7 @@ def _robot(doc: Mapping[str, Any]) -> RobotMotion:
         to_start=bool(doc.get("to_start", False)),
         cause=doc.get("cause"),
         detail=doc.get("detail"),
+        began=None if doc.get("began") is None else float(doc["began"]),
     )
 
 

@@ -105,6 +105,22 @@ def _thinned(
     return tuple(samples[round(i * step)] for i in range(STATES_KEPT))
 
 
+def joined(goals: Sequence[Followed]) -> Followed:
+    """The last of `goals` (one motion sent again after each pause) with the states of
+    all, timed from the first goal sent."""
+    last = goals[-1]
+    first: float | None = None
+    samples: list[tuple[float, tuple[float, ...]]] = []
+    for goal in goals:
+        if goal.began is None:  # refused before it was sent: no states
+            continue
+        first = goal.began if first is None else first
+        samples.extend((round(t + goal.began - first, 3), q) for t, q in goal.samples)
+    if len(goals) == 1 or first is None:
+        return last
+    return Followed(last.cause, last.detail, last.joints, tuple(samples), first)
+
+
 def arrived(motion: Motion, followed: Followed) -> Followed:
     """`followed`, or an `off-goal` fault when the robot said it reached the end but a
     joint of its last state is farther from the motion's end than the tolerance."""
@@ -118,7 +134,7 @@ def arrived(motion: Motion, followed: Followed) -> Followed:
         f"the {motion.arm} arm stopped {abs(error):.3f} rad from the end of its motion at "
         f"{joint} (tolerance {GOAL_TOLERANCE_RAD} rad), though the robot said it arrived"
     )
-    return Followed("off-goal", line, followed.joints, followed.samples)
+    return Followed("off-goal", line, followed.joints, followed.samples, followed.began)
 
 
 class RobotDriver:
@@ -158,18 +174,22 @@ class RobotDriver:
         execution is paused (and raises when it is aborted); `on_record` keeps a fault."""
         gripper = gripper_of(action)
         resume_at = 0  # a pause cancelled the goal: the waypoint to go on from
+        paused: list[Followed] = []  # the goals a pause cut short, this try's states
         while True:
             self._cancelled.clear()  # before the gate: a pause from here on is seen
             gate()
             followed, to_start = self._attempt(motion, gripper, resume_at)
             followed = arrived(motion, followed)
-            if followed.ok:
-                return self._record(motion, followed, to_start)
             if followed.cause == "preempted" and self._cancelled.is_set():
+                paused.append(followed)
                 here = arm_joints(followed.joints, motion.joints) if followed.joints else None
                 resume_at = resume_at if here is None else nearest(motion.path, here, resume_at)
                 continue
+            followed = joined([*paused, followed])
+            paused = []
             record = self._record(motion, followed, to_start)
+            if followed.ok:
+                return record
             on_record(record)
             fault = RobotFault(followed.cause or "aborted", followed.detail, followed.joints)
             choice = self.on_fault(fault) if self.on_fault is not None else "abort"
@@ -236,6 +256,7 @@ class RobotDriver:
             reached=reached,
             off_rad=round(off, 5),
             states=_thinned(followed.samples),
+            began=followed.began,
             to_start=to_start,
             cause=followed.cause,
             detail=None if followed.ok else followed.detail,

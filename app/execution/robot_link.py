@@ -89,12 +89,14 @@ class JointState:
 class Followed:
     """How a trajectory ended: `cause` None when it reached its end; `joints` the
     robot's last joint state; `samples` the arm's joint states seen along the way
-    (seconds from the start, positions in the trajectory's joint order)."""
+    (seconds from `began`, positions in the trajectory's joint order); `began` the
+    wall-clock time the goal was sent (None when none was)."""
 
     cause: FaultCause | None
     detail: str
     joints: Joints
     samples: tuple[tuple[float, tuple[float, ...]], ...] = ()
+    began: float | None = None
 
     @property
     def ok(self) -> bool:

@@ -227,10 +227,12 @@ class RosLink:
 
     def follow(self, trajectory: Trajectory, gripper: GripperCommand | None) -> Followed:
         client = self._clients[trajectory.arm]
+        # The samples' zero is taken before the goal is sent: the arm may move, and
+        # states arrive, while send_goal is still returning on a loaded machine.
+        began, began_wall = time.monotonic(), time.time()
         with self._lock:
             self._samples = []
         client.send_goal(self._goal(trajectory))
-        began = time.monotonic()
         try:
             cause, detail = self._wait(client, trajectory)
         except BaseException:  # Ctrl-C, SIGTERM: the arm must not go on alone
@@ -251,7 +253,7 @@ class RosLink:
             (round(t - began, 3), tuple(s.positions.get(j, float("nan")) for j in names))
             for t, s in samples
         )
-        return Followed(cause, detail, last, kept)
+        return Followed(cause, detail, last, kept, began_wall)
 
     def _last(self) -> Joints:
         with self._lock:

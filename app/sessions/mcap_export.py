@@ -285,7 +285,8 @@ def _write_motion(mcap: McapSession, motion: Motion, times: Sequence[float]) -> 
 
 def _write_robot(mcap: McapSession, robot: RobotMotion, event: ExecutionEvent) -> float:
     """The robot's own joint states along the motion; the time of the last."""
-    began = event.start if event.start is not None else event.time - robot.states[-1][0]
+    began = robot.began if robot.began is not None else event.start
+    began = began if began is not None else event.time - robot.states[-1][0]
     for t, q in robot.states:
         _write_joints(mcap, robot.joints, q, began + t)
     return began + robot.states[-1][0]
