@@ -56,6 +56,8 @@ def _check_motions(events: list[ExecutionEvent], played: list[tuple[float, float
         assert event.start is not None and event.end is not None
         stored = event.end - event.start
         assert stored >= 0.3, event
+        # It starts as the animation does (not when the tree was drawn before it).
+        assert event.start <= begun and ended <= event.end, event
         assert stored == pytest.approx(ended - begun, rel=0.2), (event, begun, ended)
 
 

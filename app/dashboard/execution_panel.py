@@ -343,11 +343,13 @@ class ExecutionPanel:
         nodes = plan.nodes if plan is not None else {}
         return [nodes[s.node].kind if s.node in nodes else "open" for s in self._steps]
 
-    def _play_motion(self, node_id: str, motion: Motion) -> None:
+    def _play_motion(self, node_id: str, motion: Motion) -> float:
         # The executor's player: runs before the motion's event is recorded, so the
-        # stored start and end are the animation's.
+        # stored start and end are the animation's (the tree drawn first is not).
         self.stage.go_to(node_id, show_world=False, path=tuple(self._steps))
+        began = time.time()
         self._play(motion, float(self.speed.value))
+        return began
 
     def _play(self, motion: Motion, seconds: float) -> None:
         path = motion.path

@@ -200,6 +200,13 @@ class Timeline(Protocol):
         """When the robot starts `node` (after waiting for the human, if it must)."""
         ...
 
+    def moving(self, began: float) -> None:
+        """The step under way began its motion at wall time `began` (the page's
+        animation shown, the robot's goal sent): on the wall clock its event starts
+        there, not at the work before it (drawing the tree, planning a way to the
+        start). A simulated clock times motions itself."""
+        ...
+
     def speech_left(self, node: PlanNode, spoken: Evidence | None) -> float:
         """Seconds the walk still waits for `node`'s spoken line to end (its audio, or
         its words at espeak-ng's rate) on the wall clock; 0 on a simulated one."""
@@ -247,6 +254,9 @@ class WallTimeline:
     def begin(self, node: PlanNode) -> float:
         self.started = time.time()
         return self.started
+
+    def moving(self, began: float) -> None:
+        self.started = max(self.started, min(began, time.time()))
 
     def speech_left(self, node: PlanNode, spoken: Evidence | None) -> float:
         if node.kind != "communication":
@@ -324,6 +334,9 @@ class SimulatedTimeline:
         if node.kind == "sensing" and watches_human(node):
             self.robot_free = max(self.robot_free, self.human_free)
         return self.robot_free
+
+    def moving(self, began: float) -> None:
+        pass
 
     def speech_left(self, node: PlanNode, spoken: Evidence | None) -> float:
         return 0.0

@@ -73,8 +73,9 @@ Repairing = Callable[[PlanNode, Surprise], tuple[Repair, str]]
 # Speaks a communication node's sentence; what it returns is kept with the event.
 Narrator = Callable[[str, PlanNode], Evidence | None]
 # Plays an arm motion (node id, motion) while the walk waits: the dashboard's
-# animation of the drawn arm. It returns once the motion has been shown.
-Player = Callable[[str, Motion], None]
+# animation of the drawn arm. It returns once the motion has been shown, with the
+# wall time its first frame was (None: not known).
+Player = Callable[[str, Motion], float | None]
 
 
 def _event_kind(node: PlanNode) -> EventKind:
@@ -302,9 +303,14 @@ class Executor:
         played by the page, stepped through its waypoints, or on the wall clock its
         time-parameterised duration waited; on a simulated clock it takes none."""
         if self.robot is not None:
-            return Evidence(robot=self._drive(node_id, node, motion))
+            made = self._drive(node_id, node, motion)
+            if made.began is not None:
+                self.timeline.moving(made.began)
+            return Evidence(robot=made)
         if self.player is not None:
-            self.player(node_id, motion)
+            shown = self.player(node_id, motion)
+            if shown is not None:
+                self.timeline.moving(shown)
         elif self.waypoint_s > 0:
             self._move(node_id, motion)
         elif self.timeline.clock == "wall":
