@@ -88,13 +88,29 @@ def _stop_after_first_session(
     return code, workers
 
 
+def _caught_midway(
+    tmp_path: Path, how: signal.Signals, total: int, study_file: Path = EXAMPLE
+) -> tuple[Path, Path, int]:
+    """A study stopped by `how` after its first session and before its last: its data
+    and out folders, and its exit code. A session takes tens of milliseconds, so on a
+    loaded machine the study may finish before the signal arrives: that run proves
+    nothing, and a fresh one is started (at most five)."""
+    for attempt in range(5):
+        data, out = tmp_path / f"data{attempt}", tmp_path / f"out{attempt}"
+        code, workers = _stop_after_first_session(data, out, how, study_file)
+        # Nothing is left to store a session behind the resumed run: the one writer
+        # is gone, and its workers die with it.
+        assert workers
+        _wait_gone(workers)
+        finals = [s for s in _counted(data) if s[3] in FINAL_RESULTS]
+        assert finals, "the signal came after the first session: it is stored"
+        if len(finals) < total:
+            return data, out, code
+    pytest.fail(f"the study ran all {total} sessions before the signal, five times")
+
+
 def test_a_study_killed_midway_resumes_to_one_session_each(tmp_path: Path) -> None:
-    data, out = tmp_path / "data", tmp_path / "out"
-    _, workers = _stop_after_first_session(data, out, signal.SIGKILL)
-    # Nothing is left to store a session behind the resumed run: the one writer is
-    # gone, and its workers die with it.
-    assert workers
-    _wait_gone(workers)
+    data, out, _ = _caught_midway(tmp_path, signal.SIGKILL, 6)
     before = _counted(data)
     finals = [s for s in before if s[3] in FINAL_RESULTS]
     assert 1 <= len(finals) < 6, "killed midway: some sessions done, not all"
@@ -141,10 +157,8 @@ def test_ctrl_c_stops_a_study_at_once_keeping_only_whole_sessions(tmp_path: Path
     study = tmp_path / "example.toml"
     text = EXAMPLE.read_text().replace("participants = 3", f"participants = {total // 2}")
     study.write_text(text.replace('"../scenarios/', f'"{EXAMPLE.parent.parent}/scenarios/'))
-    data, out = tmp_path / "data", tmp_path / "out"
-    code, workers = _stop_after_first_session(data, out, signal.SIGINT, study)
+    data, out, code = _caught_midway(tmp_path, signal.SIGINT, total, study)
     assert code == 130
-    _wait_gone(workers)
     # The sessions under way were never stored: what is there ended at a final result.
     before = _counted(data)
     assert 1 <= len(before) < total and all(s[3] in FINAL_RESULTS for s in before)
