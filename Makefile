@@ -51,12 +51,11 @@ bytecode: $(STAMP)
 run: $(STAMP) bytecode
 	$(BIN)/tandem dashboard --scenario static/scenarios/default.toml
 
-# One test process more than the cores: most tests wait (a page, real-time audio, the
-# simulated robot, subprocesses), so three processes on two cores cut the suite's wall
-# time from 1,521 to 797-830 s on a fresh clone. `make test TEST_WORKERS=4` adds a lane
-# for the files that wait on real time (tests/conftest.py): 729-736 s on fresh clones,
-# but two timing checks still fail under that load now and then (docs/testing.md).
-TEST_WORKERS ?= $(shell echo $$(( $$(nproc) + 1 )))
+# Two test processes more than the cores: most tests wait (a page, real-time audio,
+# the simulated robot, subprocesses), and the last process is a lane for the files that
+# wait on real time (tests/conftest.py). On two cores: 1,521 s of tests in one process,
+# 797-830 s in three, 689 s in four on a fresh clone (docs/testing.md).
+TEST_WORKERS ?= $(shell echo $$(( $$(nproc) + 2 )))
 
 test: $(STAMP) system bytecode
 	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile --durations=25
