@@ -26,22 +26,6 @@ def pytest_configure(config: pytest.Config) -> None:
         folder = tempfile.mkdtemp(prefix=f"tandem-test-{variable[7:11].lower()}-")
         _made.append(folder)
         os.environ[variable] = folder
-    _yield_to_the_lane()
-
-
-# How much the workers that compute yield to the lane (and what it starts: the
-# simulated robot, the room's audio): with four workers on two cores the cores are
-# busy all the time, and a file that listens or moves in real time must not wait for
-# a file that computes (a room's answer went unheard under that load).
-COMPUTING_NICE = 5
-
-
-def _yield_to_the_lane() -> None:
-    """In a worker that is not the lane, a lower priority for it and all it starts."""
-    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
-    count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0"))
-    if count >= LANE_FROM and worker != f"gw{count - 1}":
-        os.nice(COMPUTING_NICE)
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
