@@ -10,10 +10,15 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from planner import planning
 from planner.plan.model import Plan
 from planner.planning import plan_scenario
 from planner.resources import scenario_dir
-from planner.scenario.loading import load_scenario
+from planner.scenario import paper
+from planner.scenario.loading import load_scenario, parse_scenario
+from planner.search.branch_planner import Problem
+from planner.search.hcp import ConditionalPlanner
+from planner.vocabulary import State
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = scenario_dir()
@@ -77,3 +82,15 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
+
+
+def family_states(family: str, n: int, workers: int) -> tuple[list[State], Problem]:
+    """The states of family `family`'s instance `n` (declared feasibility) that its
+    plan reaches and that are not goals, and the problem its search solved."""
+    scenario = parse_scenario(paper.scenario_toml(family, n, "declared"), f"{family}{n}")
+    planners: list[ConditionalPlanner] = []
+    plan_scenario(scenario, workers=workers, cache_dir=":memory:", planner_hook=planners.append)
+    states = [s for s, node in planners[0].nodes.items() if not node.goal]
+    reachable, _ = planning.feasible_pairs(scenario, None)
+    _, problem = planning._problem(scenario, reachable, [], None, ())
+    return states, problem

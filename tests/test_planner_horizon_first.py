@@ -8,21 +8,14 @@ from collections.abc import Iterable
 from dataclasses import replace
 
 from planner import planning
-from planner.scenario import paper
-from planner.scenario.loading import parse_scenario
 from planner.search.branch_planner import BranchPlanner, as_solved
-from planner.search.hcp import ConditionalPlanner
 from planner.search.solver import SequentialPlan
 from planner.vocabulary import State
+from tests.plan_fixtures import family_states
 
 
 def test_the_horizon_first_gives_the_step_short_searchs_branches() -> None:
-    scenario = parse_scenario(paper.scenario_toml("U", 10, "declared"), "U10")
-    planners: list[ConditionalPlanner] = []
-    planning.plan_scenario(scenario, workers=2, cache_dir=":memory:", planner_hook=planners.append)
-    states: list[State] = [s for s, node in planners[0].nodes.items() if not node.goal]
-    reachable, _ = planning.feasible_pairs(scenario, None)
-    _, problem = planning._problem(scenario, reachable, [], None, ())
+    states, problem = family_states("U", 10, workers=2)
     assert problem.short_first  # a large bench, where branches look a step short first
     problem = as_solved(replace(problem, programs=planning.preprocessed_programs(problem)), 2)
     step_short, horizon_first = BranchPlanner(problem), BranchPlanner(problem)

@@ -7,22 +7,14 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from dataclasses import replace
 
-from planner import planning
-from planner.scenario import paper
-from planner.scenario.loading import parse_scenario
 from planner.search.branch_planner import MAX_HORIZON_FACTOR, BranchPlanner, as_solved
-from planner.search.hcp import ConditionalPlanner
 from planner.search.solver import SequentialPlan
 from planner.vocabulary import State
+from tests.plan_fixtures import family_states
 
 
 def test_the_shortest_horizon_with_a_plan_answers_and_the_longest_proves_dead_ends() -> None:
-    scenario = parse_scenario(paper.scenario_toml("U", 4, "declared"), "U4")
-    planners: list[ConditionalPlanner] = []
-    planning.plan_scenario(scenario, workers=1, cache_dir=":memory:", planner_hook=planners.append)
-    states: list[State] = [s for s, node in planners[0].nodes.items() if not node.goal]
-    reachable, _ = planning.feasible_pairs(scenario, None)
-    _, problem = planning._problem(scenario, reachable, [], None, ())
+    states, problem = family_states("U", 4, workers=1)
     # A horizon of one step: most milestones take two to four. History-free, so that
     # each answer is a function of its state, whichever solves came before.
     problem = as_solved(replace(problem, horizon=1, short_first=False), 2)
