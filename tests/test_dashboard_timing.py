@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -49,15 +50,34 @@ def _timed_animations(dashboard: Dashboard) -> list[tuple[float, float]]:
     return played
 
 
-def _check_motions(events: list[ExecutionEvent], played: list[tuple[float, float]]) -> None:
+def _timed_tree_moves(dashboard: Dashboard) -> list[tuple[str, float]]:
+    """Each node the page's tree and bench went to, and when that drawing ended."""
+    moved: list[tuple[str, float]] = []
+    stage = dashboard.execution.stage
+    go_to = stage.go_to
+
+    def timed(node_id: str, *args: Any, **kwargs: Any) -> None:
+        go_to(node_id, *args, **kwargs)
+        moved.append((node_id, time.time()))
+
+    stage.go_to = timed  # type: ignore[method-assign]
+    return moved
+
+
+def _check_motions(
+    events: list[ExecutionEvent],
+    played: list[tuple[float, float]],
+    moved: list[tuple[str, float]],
+) -> None:
     motions = [e for e in events if e.kind == "actuation"]
     assert motions and len(played) == len(motions)
     for event, (begun, ended) in zip(motions, played, strict=True):
         assert event.start is not None and event.end is not None
         stored = event.end - event.start
         assert stored >= 0.3, event
-        # It starts as the animation does (not when the tree was drawn before it).
-        assert event.start <= begun and ended <= event.end, event
+        # It starts as the animation does, after the tree went to the node.
+        drawn = [t for node, t in moved if node == event.node and t <= begun]
+        assert drawn and drawn[-1] <= event.start <= begun and ended <= event.end, event
         assert stored == pytest.approx(ended - begun, rel=0.2), (event, begun, ended)
 
 
@@ -91,13 +111,14 @@ def test_a_clicked_session_stores_true_motions_and_the_humans_actions(
     browser: Browser, dashboard: Dashboard
 ) -> None:
     played = _timed_animations(dashboard)
+    moved = _timed_tree_moves(dashboard)
     with opened(browser, dashboard) as page:
         session_id = run_by_clicks(page, dashboard, SECONDS_PER_STEP)
     plan = dashboard.plan
     assert plan is not None
     assert dashboard.store.get(session_id).clock == "wall"
     events = dashboard.store.events(session_id)
-    _check_motions(events, played)
+    _check_motions(events, played, moved)
     _check_clicked_humans(plan, events)
     metrics = session_metrics(events, clock="wall")
     assert metrics.timed

@@ -104,6 +104,10 @@ def test_five_seeds_reach_the_goal_on_the_simulated_baxter(tmp_path: Path) -> No
                 robot = event.evidence.robot if event.evidence else None
                 assert robot is not None and robot.link == "ros"
                 assert robot.cause is None and robot.off_rad <= REACHED_RAD
+                # The step starts when the goal was sent, not when it was reached (the
+                # robot's state read, a way to the motion's start planned before it).
+                assert robot.began is not None
+                assert event.start == pytest.approx(robot.began, rel=0, abs=1e-6)
                 assert len(robot.states) >= 2  # joint states along the motion, stored
                 # Against the plan's own motion (unless the world's slots re-targeted it).
                 retargeted = event.evidence.retargeted if event.evidence else None
