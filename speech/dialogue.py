@@ -4,7 +4,8 @@
 own thread and cuts it into utterances (`EndOfSpeech`, with the dialogue's
 end-of-speech pause and maximum utterance). Each utterance is decoded while it
 is spoken, by the command grammar always and by the answer grammar while an
-answer is awaited (`Ear.answer`), and is then judged:
+answer is awaited (`Ear.answer`; asked late, from the first block of an
+utterance that began after the robot's question), and is then judged:
 
 - **Never hearing itself.** The robot tells the ear what it says and when
   (`robot_speaks`). An utterance that starts while the robot speaks, or within
@@ -261,6 +262,7 @@ class Ear:
         wait = self.times.no_speech_s if no_speech_s is None else no_speech_s
         with self._cond:
             self._awaiting, self._answer = recognizer, Answer(None)
+            self._catch_up(recognizer, self._answer)
             self._quiet_from = self.stream.position_s
             heard_at, position = time.monotonic(), self.stream.position_s
             try:
@@ -280,6 +282,27 @@ class Ear:
                 return self._answer
             finally:
                 self._awaiting = None
+
+    def _catch_up(self, recognizer: Recognizer, answer: Answer) -> None:
+        """What was heard of the robot's last question before the answer was asked for
+        (under the lock): its own voice, and an utterance under way that began after it.
+
+        The asking thread may reach `answer` late (a busy machine), after a quick human
+        has begun to answer: that utterance is decoded from its first block, as if the
+        wait had begun in time. One that began before the question is not an answer.
+        """
+        with self._robot_lock:
+            asked_s = self._robot[-1][0] if self._robot else None
+        if asked_s is None:
+            return
+        answer.own_voice = [h for h in self.heard if h.reason == "own voice" and h.end_s > asked_s]
+        current = self._current
+        if current is None or current.own or current.answers is not None or self.held:
+            return
+        if current.start_s + BLOCK_S > asked_s:  # its onset came after the question began
+            current.answers = recognizer.start()
+            for block in current.blocks:
+                current.answers.feed(block)
 
     def _silent_for(self, wait: float) -> bool:
         """Whether nobody has spoken for `wait` s since the robot stopped, not counting

@@ -8,6 +8,7 @@ human's words are espeak-ng's Korean voice, and the real vosk model decides.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -24,9 +25,9 @@ from app.sources.outcomes import RandomSource
 from app.sources.voice import is_question
 from planner.plan.model import Plan, PlanNode
 from planner.scenario.sections import Human
-from speech.audio import RATE, read_wav, resample
+from speech.audio import RATE, Samples, read_wav, resample
 from speech.dialogue import Commands, DialogueTimes, Ear, Hearing
-from speech.recognition import Recognizer
+from speech.recognition import Decoding, Recognizer
 from speech.sources import SimulatedRoom, SimulatedVoice, Span
 from speech.synthesis import synthesize
 from tests.plan_fixtures import korean_plan
@@ -94,6 +95,61 @@ def test_the_robots_own_question_is_refused_and_an_answer_right_after_is_taken(
         assert answer.own_voice[0].start_s < voice_ends
     # Nothing heard was taken as an answer but the human's.
     assert [h for h in ear.heard if h.meaning is not None] == [answer.hearing]
+
+
+class _StalledStream:
+    """The room, whose reading stops at `stall_s` until `go_on` is set: an ear that
+    has heard the start of the human's answer when the answer is asked for."""
+
+    def __init__(self, room: SimulatedRoom) -> None:
+        self.room = room
+        self.stall_s = float("inf")
+        self.stalled, self.go_on = threading.Event(), threading.Event()
+
+    @property
+    def position_s(self) -> float:
+        return self.room.position_s
+
+    def read(self) -> Samples:
+        if self.room.position_s >= self.stall_s:
+            self.stalled.set()
+            self.go_on.wait(10.0)
+        return self.room.read()
+
+
+def test_an_answer_begun_before_the_ear_was_asked_for_it_is_taken(
+    recognizers: dict[str, Recognizer], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The asking thread late (a busy machine): the human answered right after the
+    question, and the ear had heard 0.15 s of it when the answer was asked for."""
+    question, yes, _ = SPOKEN["en-us"]
+    stream = _StalledStream(SimulatedRoom(seed=4))
+    times = DialogueTimes()
+    ear = Ear(stream, times, Commands("en-us"), cancel_echo=False).start()
+    recognizer = _recognizer(recognizers, "en-us")
+    decode = recognizer.start
+
+    def decode_and_go_on() -> Decoding:  # the stream goes on once the answer is decoded
+        stream.go_on.set()
+        return decode()
+
+    monkeypatch.setattr(recognizer, "start", decode_and_go_on)
+    try:
+        voice_ends = float(_robot_says(stream.room, ear, question, "en-us", tmp_path).speech_end_s)
+        human = SimulatedVoice("en-us", seed=2, room=stream.room)
+        human.say_at(yes, voice_ends + times.echo_tail_s + 0.05 - human.pause_s)
+        assert human.spoken_at is not None
+        stream.stall_s = human.spoken_at.speech_start_s + 0.15
+        assert stream.stalled.wait(30.0), "the room never reached the answer"
+        answer = ear.answer(recognizer)
+    finally:
+        stream.go_on.set()
+        ear.close()
+    assert answer.hearing is not None and answer.hearing.meaning == "yes", (answer, ear.heard)
+    assert answer.hearing.start_s < stream.stall_s  # heard from its start, not from the call
+    # The question, heard before the call, is still this answer's own voice.
+    assert answer.own_voice and all(h.reason == "own voice" for h in answer.own_voice)
+    assert answer.own_voice[0].start_s < voice_ends
 
 
 @pytest.mark.parametrize("code", ["ko", "en-us"])
