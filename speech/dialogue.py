@@ -4,8 +4,8 @@
 own thread and cuts it into utterances (`EndOfSpeech`, with the dialogue's
 end-of-speech pause and maximum utterance). Each utterance is decoded while it
 is spoken, by the command grammar always and by the answer grammar while an
-answer is awaited (`Ear.answer`; asked late, from the first block of an
-utterance that began after the robot's question), and is then judged:
+answer is awaited (`Ear.answer`; asked late, the first utterance begun after
+the robot's question, ended or not, from its first block), and is then judged:
 
 - **Never hearing itself.** The robot tells the ear what it says and when
   (`robot_speaks`). An utterance that starts while the robot speaks, or within
@@ -191,6 +191,7 @@ class Ear:
         self._awaiting: Recognizer | None = None
         self._answer: Answer | None = None
         self._current: _Utterance | None = None
+        self._unasked: list[tuple[_Utterance, Hearing]] = []  # heard while no answer awaited
         self._draining = False  # the rest of a too-long utterance
         self._recent: list[tuple[float, Samples]] = []  # the pre-roll before an onset
         self._levels: list[float] = []  # dBFS of the recent blocks between utterances
@@ -285,24 +286,40 @@ class Ear:
 
     def _catch_up(self, recognizer: Recognizer, answer: Answer) -> None:
         """What was heard of the robot's last question before the answer was asked for
-        (under the lock): its own voice, and an utterance under way that began after it.
+        (under the lock): its own voice, and the first utterance begun after it.
 
-        The asking thread may reach `answer` late (a busy machine), after a quick human
-        has begun to answer: that utterance is decoded from its first block, as if the
-        wait had begun in time. One that began before the question is not an answer.
+        The asking thread may reach `answer` late (a busy machine, or an ear catching
+        up on its stream, which takes the lock block after block), after a quick
+        human has begun or even finished answering: that utterance is decoded from its
+        first block, as if the wait had begun in time. One begun before the question
+        is not an answer.
         """
         with self._robot_lock:
             asked_s = self._robot[-1][0] if self._robot else None
-        if asked_s is None:
+        unasked, self._unasked = self._unasked, []
+        if asked_s is None or self.held:
             return
         answer.own_voice = [h for h in self.heard if h.reason == "own voice" and h.end_s > asked_s]
-        current = self._current
-        if current is None or current.own or current.answers is not None or self.held:
+        after = [(u, h) for u, h in unasked if u.start_s + BLOCK_S > asked_s]  # onset after it
+        if after:
+            utterance, heard = after[0]
+            self._decode(utterance, recognizer)
+            hearing = replace(self._judged(utterance, False, heard.end_s),
+                              speech_end_s=heard.speech_end_s)  # fmt: skip
+            self.heard = [hearing if h is heard else h for h in self.heard]
+            answer.hearing = hearing
             return
-        if current.start_s + BLOCK_S > asked_s:  # its onset came after the question began
-            current.answers = recognizer.start()
-            for block in current.blocks:
-                current.answers.feed(block)
+        current = self._current
+        if current is not None and not current.own and current.answers is None:
+            if current.start_s + BLOCK_S > asked_s:
+                self._decode(current, recognizer)
+
+    @staticmethod
+    def _decode(utterance: _Utterance, recognizer: Recognizer) -> None:
+        """`utterance`'s answer decoding, from its first block."""
+        utterance.answers = recognizer.start()
+        for block in utterance.blocks:
+            utterance.answers.feed(block)
 
     def _silent_for(self, wait: float) -> bool:
         """Whether nobody has spoken for `wait` s since the robot stopped, not counting
@@ -414,6 +431,8 @@ class Ear:
         hearing = replace(self._judged(current, too_long, end_s), speech_end_s=spoken_until)
         self._heard(hearing)
         if self._awaiting is None or self._answer is None:
+            if not current.own and not too_long:  # an answer asked for late may be this
+                self._unasked = [*self._unasked[-3:], (current, hearing)]
             return
         if hearing.reason == "own voice":
             self._answer.own_voice.append(hearing)

@@ -117,11 +117,13 @@ class _StalledStream:
         return self.room.read()
 
 
-def test_an_answer_begun_before_the_ear_was_asked_for_it_is_taken(
-    recognizers: dict[str, Recognizer], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+@pytest.mark.parametrize("late", ["begun", "ended"])
+def test_an_answer_given_before_the_ear_was_asked_for_it_is_taken(
+    recognizers: dict[str, Recognizer], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, late: str
 ) -> None:
     """The asking thread late (a busy machine): the human answered right after the
-    question, and the ear had heard 0.15 s of it when the answer was asked for."""
+    question, and the ear had heard 0.15 s of the answer, or all of it, when the
+    answer was asked for."""
     question, yes, _ = SPOKEN["en-us"]
     stream = _StalledStream(SimulatedRoom(seed=4))
     times = DialogueTimes()
@@ -138,8 +140,10 @@ def test_an_answer_begun_before_the_ear_was_asked_for_it_is_taken(
         voice_ends = float(_robot_says(stream.room, ear, question, "en-us", tmp_path).speech_end_s)
         human = SimulatedVoice("en-us", seed=2, room=stream.room)
         human.say_at(yes, voice_ends + times.echo_tail_s + 0.05 - human.pause_s)
-        assert human.spoken_at is not None
-        stream.stall_s = human.spoken_at.speech_start_s + 0.15
+        said = human.spoken_at
+        assert said is not None
+        ended = said.speech_end_s + times.end_of_speech_s + 0.2
+        stream.stall_s = said.speech_start_s + 0.15 if late == "begun" else ended
         assert stream.stalled.wait(30.0), "the room never reached the answer"
         answer = ear.answer(recognizer)
     finally:
@@ -147,6 +151,7 @@ def test_an_answer_begun_before_the_ear_was_asked_for_it_is_taken(
         ear.close()
     assert answer.hearing is not None and answer.hearing.meaning == "yes", (answer, ear.heard)
     assert answer.hearing.start_s < stream.stall_s  # heard from its start, not from the call
+    assert [h for h in ear.heard if h.meaning is not None] == [answer.hearing]
     # The question, heard before the call, is still this answer's own voice.
     assert answer.own_voice and all(h.reason == "own voice" for h in answer.own_voice)
     assert answer.own_voice[0].start_s < voice_ends
