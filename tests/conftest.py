@@ -104,7 +104,7 @@ _WAITS = re.compile(
     r"|tests\.audio_device) import|^from speech\.sources import .*\bSimulatedRoom\b",
     re.M,
 )
-# The lane is made from this many workers on (`make test TEST_WORKERS=4` on two cores):
+# The lane is made from this many workers on (`make test`'s default on two cores):
 # with three, two workers computing are too few for the suite.
 LANE_FROM = 4
 _PAGE = re.compile(r"^from playwright|^import playwright|\bpage: Page\b", re.M)
