@@ -192,6 +192,7 @@ class Ear:
         self._answer: Answer | None = None
         self._current: _Utterance | None = None
         self._unasked: list[tuple[_Utterance, Hearing]] = []  # heard while no answer awaited
+        self._waited_until_s = 0.0  # where the last answer's wait ended (stream time)
         self._draining = False  # the rest of a too-long utterance
         self._recent: list[tuple[float, Samples]] = []  # the pre-roll before an onset
         self._levels: list[float] = []  # dBFS of the recent blocks between utterances
@@ -283,6 +284,7 @@ class Ear:
                 return self._answer
             finally:
                 self._awaiting = None
+                self._waited_until_s = self.stream.position_s
 
     def _catch_up(self, recognizer: Recognizer, answer: Answer) -> None:
         """What was heard of the robot's last question before the answer was asked for
@@ -297,7 +299,9 @@ class Ear:
         with self._robot_lock:
             asked_s = self._robot[-1][0] if self._robot else None
         unasked, self._unasked = self._unasked, []
-        if asked_s is None or self.held:
+        # Only a question the ear was told of since the last wait (a line the page
+        # plays as MP3 is not): otherwise what came after an older one is no answer.
+        if asked_s is None or asked_s < self._waited_until_s or self.held:
             return
         answer.own_voice = [h for h in self.heard if h.reason == "own voice" and h.end_s > asked_s]
         after = [(u, h) for u, h in unasked if u.start_s + BLOCK_S > asked_s]  # onset after it

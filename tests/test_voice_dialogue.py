@@ -157,6 +157,36 @@ def test_an_answer_given_before_the_ear_was_asked_for_it_is_taken(
     assert answer.own_voice[0].start_s < voice_ends
 
 
+def test_what_is_said_after_an_answer_is_not_the_next_answer_without_a_new_question(
+    recognizers: dict[str, Recognizer], tmp_path: Path
+) -> None:
+    """A "yes" said again after the answer, and an answer then asked for with no new
+    question the ear was told of (a line the page plays as MP3): no speech."""
+    question, yes, _ = SPOKEN["en-us"]
+    stream = _StalledStream(SimulatedRoom(seed=4))
+    times = DialogueTimes()
+    ear = Ear(stream, times, Commands("en-us"), cancel_echo=False).start()
+    recognizer = _recognizer(recognizers, "en-us")
+    try:
+        voice_ends = float(_robot_says(stream.room, ear, question, "en-us", tmp_path).speech_end_s)
+        human = SimulatedVoice("en-us", seed=2, room=stream.room)
+        human.say_at(yes, voice_ends + times.echo_tail_s + 0.05 - human.pause_s)
+        first = ear.answer(recognizer)
+        human.say_at(yes, stream.position_s + 0.3)
+        said = human.spoken_at
+        assert said is not None
+        stream.stall_s = said.speech_end_s + times.end_of_speech_s + 0.2
+        assert stream.stalled.wait(30.0), "the room never reached the second yes"
+        stream.go_on.set()
+        second = ear.answer(recognizer, no_speech_s=1.0)
+    finally:
+        stream.go_on.set()
+        ear.close()
+    assert first.hearing is not None and first.hearing.meaning == "yes", (first, ear.heard)
+    assert second.hearing is None, (second, ear.heard)
+    assert len([h for h in ear.heard if h.start_s > said.start_s - 0.1]) == 1  # it was heard
+
+
 @pytest.mark.parametrize("code", ["ko", "en-us"])
 def test_a_stop_said_over_the_robots_voice_is_heard(
     recognizers: dict[str, Recognizer], tmp_path: Path, code: str
