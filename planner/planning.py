@@ -278,7 +278,10 @@ class _Planning:
             self.scenario, reachable, points, self.options.start, self.options.skip
         )
         if self.large:
-            problem = replace(problem, programs=preprocessed_programs(problem))
+            # Interchangeable members that no longer matter are left out of solves
+            # (`planner.search.relevance`): a large bench's solves are most of its plan.
+            members = Symmetry.of(problem.facts, reachable).classes if self.options.symmetry else ()
+            problem = replace(problem, programs=preprocessed_programs(problem), members=members)
         if self.options.cluster is not None:
             # Imported only here: without --cluster, Ray is never loaded.
             from planner.search import cluster as ray_cluster
@@ -353,7 +356,7 @@ class _Planning:
             inline_s=options.inline_s,
             fork_at_start=self.large,
             engine=self.engine,
-            symmetry=Symmetry.of(problem.facts, reachable) if options.symmetry else None,
+            symmetry=_symmetry(problem, reachable) if options.symmetry else None,
             ahead=self.ahead,
         )
         checks = self.checks
@@ -399,6 +402,12 @@ class _Planning:
         self.ahead = ground_ahead(problem)
         self.hoped_problem = problem
         self.hoped = HopedPlanning(self._planner_for(problem, reach), self.root)
+
+
+def _symmetry(problem: Problem, reachable: frozenset[tuple[str, str]]) -> Symmetry:
+    """The interchangeable members of `problem` (found once: a large bench's problem
+    names them already)."""
+    return Symmetry(problem.members) if problem.members else Symmetry.of(problem.facts, reachable)
 
 
 def _view(node_id: str, node: DagNode) -> conversation.NodeView:

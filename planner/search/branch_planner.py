@@ -15,8 +15,10 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import Future, wait
 from dataclasses import dataclass, replace
 
+from planner.search import relevance
 from planner.search.encoding import FeasibilityContext
 from planner.search.solver import BranchSolver, SequentialPlan, StepProgram, Successor
+from planner.search.symmetry import Member
 from planner.vocabulary import Action, State
 
 # A branch longer than the horizon is retried with 2, 4, ... times it, up to this factor.
@@ -41,6 +43,9 @@ class Problem:
     # Planning programs preprocessed by clasp, by horizon (`planner.search.preprocessing`):
     # every process solves a horizon with the same program, made once.
     programs: tuple[tuple[int, str], ...] = ()
+    # Classes of interchangeable members (`planner.search.symmetry`) whose finished and
+    # waiting members a history-free solve leaves out (`planner.search.relevance`).
+    members: tuple[tuple[Member, ...], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -76,6 +81,15 @@ class BranchPlanner:
         self.problem = problem
         self.context = FeasibilityContext(lambda m, p: (m, p) in problem.reachable)
         self.solvers: dict[int, BranchSolver] = {}
+        # Solvers of programs without the members a state's solve leaves out, by
+        # horizon and shape (only where answers depend on the state alone: the order
+        # of solves in one program decides the others' answers).
+        self.relevance = (
+            relevance.Relevance(problem.members, problem.facts, problem.reachable)
+            if problem.members and problem.history_free
+            else None
+        )
+        self._reduced: dict[tuple[int, relevance.Shape], BranchSolver] = {}
         self._aside: dict[int, Future[BranchSolver]] = {}  # grounding in threads
         # Grounds aside from now on: the first branch lists outcomes within
         # milliseconds of its first solve.
@@ -136,7 +150,6 @@ class BranchPlanner:
         found, horizon = self._sequential(start, forbid, horizon_first)
         planned = None
         if found is not None:
-            solver = self.solver(self.problem.horizon)
             planned = tuple(
                 PlannedStep(
                     s.state,
@@ -145,7 +158,7 @@ class BranchPlanner:
                     # Deterministic steps: the plan itself says what follows.
                     (Successor(None, s.after, s.after_goal),)
                     if s.outcome is None
-                    else tuple(solver.outcomes(s.state, s.action)),
+                    else tuple(self.step.outcomes(s.state, s.action)),
                 )
                 for s in found.steps
             )
@@ -185,16 +198,16 @@ class BranchPlanner:
         looked = False
         if self.problem.short_first and horizon > 1:
             if horizon_first:
-                known, looked = self.solver(horizon).plan(start, forbid), True
+                known, looked = self._plan(horizon, start, forbid, whole=True), True
             if not looked or (known is not None and _steps_alone(known, horizon - 1)):
-                short = self.solver(horizon - 1).plan(start, forbid)
+                short = self._plan(horizon - 1, start, forbid, whole=horizon_first)
                 if short is not None and short.steps_cost_only:
                     return short, horizon
-        found = known if looked else self.solver(horizon).plan(start, forbid)
+        found = known if looked else self._plan(horizon, start, forbid, whole=horizon_first)
         longest = self.problem.horizon * MAX_HORIZON_FACTOR
         if found is None and horizon < longest:
             horizon *= 2  # twice the horizon: the longest only where this finds none
-            found = self.solver(horizon).plan(start, forbid)
+            found = self._plan(horizon, start, forbid)
         if found is not None or horizon >= longest:
             return found, horizon
         # Most branches two horizons cannot plan are dead ends, proven only by the
@@ -209,6 +222,44 @@ class BranchPlanner:
             if found is not None:
                 return found, horizon
         return last, longest
+
+    def _plan(
+        self, horizon: int, start: State, forbid: frozenset[str], *, whole: bool = False
+    ) -> SequentialPlan | None:
+        """The optimal plan of `horizon` steps from `start`: in a program without the
+        members that do not matter to it (`planner.search.relevance`), where some
+        do not and the horizon is one every branch is first solved with. `whole`: in
+        the whole program (along the first branch, whose states leave out a few
+        members more at every milestone: each would ground a program of its own
+        before the branch could go on)."""
+        first = self.problem.horizon - 1 <= horizon <= self.problem.horizon
+        reducing = self.relevance if first and not whole else None
+        reduced = reducing.reduce(start, horizon, forbid) if reducing else None
+        if reduced is not None:
+            found = self._reduced_solver(horizon, reduced.shape).plan(
+                reduced.state, reduced.forbidden(forbid)
+            )
+            if found is not None:
+                return reduced.actual_plan(found)
+        # (No plan without them is no plan with them either; the whole program says
+        # so, for the rare dead end.)
+        return self.solver(horizon).plan(start, forbid)
+
+    def _reduced_solver(self, horizon: int, shape: relevance.Shape) -> BranchSolver:
+        made = self._reduced.get((horizon, shape))
+        if made is None:
+            assert self.relevance is not None
+            facts, reachable = self.relevance.facts_of(shape)
+            made = self._reduced[(horizon, shape)] = BranchSolver(
+                facts,
+                horizon,
+                FeasibilityContext(lambda m, p: (m, p) in reachable),
+                skip=self.problem.skip,
+                history_free=True,
+                rules=relevance.RULES,
+                externals=relevance.EXTERNALS,
+            )
+        return made
 
 
 def _steps_alone(plan: SequentialPlan, steps: int) -> bool:

@@ -67,17 +67,18 @@ def ground(
     skip: Iterable[str] = (),
     options: Iterable[str] = (),
     directory: Traversable | None = None,
+    rules: str = "",
 ) -> clingo.Control:
     """Ground the domain once for `horizon` steps; later solves only change externals.
 
     Each encoding is loaded from its own file, so clingo's messages name it
     (`.../state.lp:12:3-9: error: syntax error ...`); `directory` replaces the
-    shipped encodings (tests break a copy).
+    shipped encodings (tests break a copy); `rules` are added to them.
     """
     skipped = tuple(skip)
     messages = ClingoMessages(expect_undefined=bool(skipped))
     ctl = clingo.Control(["-c", f"h={horizon}", *options], logger=messages)
-    ground_into(ctl, facts, context, messages, skip=skipped, directory=directory)
+    ground_into(ctl, facts, context, messages, skip=skipped, directory=directory, rules=rules)
     return ctl
 
 

@@ -81,6 +81,8 @@ class StepProgram:
         # A context of its own: two threads must not count calls into one.
         own = FeasibilityContext(context.predicate)
         args = (list(facts), own, tuple(sorted({*skip, "milestones", "lookahead", "preferences"})))
+        self._occ: dict[str, int | None] = {}
+        self._shown: dict[clingo.Symbol, tuple[str, int, str]] = {}  # `_meaning`, read once
         threading.Thread(target=self._ground, args=args, daemon=True).start()
 
     def _ground(self, facts: list[str], context: FeasibilityContext, skip: tuple[str, ...]) -> None:
@@ -98,6 +100,42 @@ class StepProgram:
     def get(self) -> tuple[clingo.Control, dict[str, int]]:
         """The grounded program and its `init/1` externals (waits for the thread)."""
         return self._program.result()
+
+    def outcomes(self, state: State, action: Action) -> list[Successor]:
+        """Every outcome of `action` in `state` and the state after it."""
+        occ = self._occ_literal(str(action))
+        if occ is None:
+            return []
+        step_ctl, step_fluents = self.get()
+        assumptions = _assume(step_fluents, state)
+        assumptions.append(occ)
+        found: list[Successor] = []
+
+        def on_model(model: clingo.Model) -> None:
+            label: str | None = None
+            after: set[str] = set()
+            goal = False
+            for sym in model.symbols(shown=True):
+                kind, t, text = _read(self._shown, sym)
+                if kind == "out":
+                    label = text
+                elif kind == "h" and t == 1:
+                    after.add(text)
+                elif kind == "goalAt" and t == 1:
+                    goal = True
+            found.append(Successor(label, frozenset(after), goal))
+
+        step_ctl.solve(assumptions=assumptions, on_model=on_model)
+        found.sort(key=lambda o: (o.label is None, o.label or ""))
+        return found
+
+    def _occ_literal(self, action: str) -> int | None:
+        """The literal of `occ(action,0)`; None if grounding found it never possible."""
+        if action not in self._occ:
+            sym = clingo.Function("occ", [clingo.parse_term(action), clingo.Number(0)])
+            atom = self.get()[0].symbolic_atoms[sym]
+            self._occ[action] = atom.literal if atom is not None else None
+        return self._occ[action]
 
     def settle(self) -> None:
         """Waits until the thread is done grounding, whether it failed or not."""
@@ -118,28 +156,40 @@ class BranchSolver:
     # The one-step program, if made already (shared by a process's solvers);
     # None: ground it here when first needed.
     step: StepProgram | None = None
+    # Rules added to the encodings (`planner.search.relevance.RULES`), when grounded here.
+    rules: str = ""
+    externals: tuple[tuple[str, int], ...] = ()  # (name, arity) of their externals
 
     def __post_init__(self) -> None:
         options = (*(HISTORY_FREE + CORE_GUIDED if self.history_free else ()), *self.options)
         self._plan_ctl = (
-            ground(self.facts, self.horizon, self.context, skip=self.skip, options=options)
+            ground(
+                self.facts,
+                self.horizon,
+                self.context,
+                skip=self.skip,
+                options=options,
+                rules=self.rules,
+            )
             if self.program is None
             else load_preprocessed(self.program, options)
         )
         # Assumptions are passed as solver literals, looked up once: symbol
         # assumptions cost a symbol-table lookup each on every solve.
         self._fluents = _externals(self._plan_ctl, "init")
+        # A program without some parts takes what stands for them as assumptions too.
+        for name, arity in self.externals:
+            self._fluents.update(_externals(self._plan_ctl, name, arity, by_atom=True))
         self._forbid = _externals(self._plan_ctl, "forbid")
         # The one-step program is grounded when first needed: solvers made for
         # longer horizons only plan and never list outcomes.
-        self._step: tuple[clingo.Control, dict[str, int]] | None = None
-        self._occ: dict[str, int | None] = {}
+        self._step: StepProgram | None = None
         # What each shown symbol of a model says (`_meaning`), decoded once.
         self._shown: dict[clingo.Symbol, tuple[str, int, str]] = {}
 
-    def _step_program(self) -> tuple[clingo.Control, dict[str, int]]:
+    def _step_program(self) -> StepProgram:
         if self._step is None:
-            self._step = (self.step or StepProgram(self.facts, self.context, self.skip)).get()
+            self._step = self.step or StepProgram(self.facts, self.context, self.skip)
         return self._step
 
     def plan(self, state: State, forbid: Iterable[str] = ()) -> SequentialPlan | None:
@@ -162,46 +212,10 @@ class BranchSolver:
 
     def outcomes(self, state: State, action: Action) -> list[Successor]:
         """Every outcome of `action` in `state` and the state after it."""
-        occ = self._occ_literal(str(action))
-        if occ is None:
-            return []
-        step_ctl, step_fluents = self._step_program()
-        assumptions = _assume(step_fluents, state)
-        assumptions.append(occ)
-        found: list[Successor] = []
-
-        def on_model(model: clingo.Model) -> None:
-            label: str | None = None
-            after: set[str] = set()
-            goal = False
-            for sym in model.symbols(shown=True):
-                kind, t, text = self._read(sym)
-                if kind == "out":
-                    label = text
-                elif kind == "h" and t == 1:
-                    after.add(text)
-                elif kind == "goalAt" and t == 1:
-                    goal = True
-            found.append(Successor(label, frozenset(after), goal))
-
-        step_ctl.solve(assumptions=assumptions, on_model=on_model)
-        found.sort(key=lambda o: (o.label is None, o.label or ""))
-        return found
-
-    def _occ_literal(self, action: str) -> int | None:
-        """The literal of `occ(action,0)`; None if grounding found it never possible."""
-        if action not in self._occ:
-            sym = clingo.Function("occ", [clingo.parse_term(action), clingo.Number(0)])
-            atom = self._step_program()[0].symbolic_atoms[sym]
-            self._occ[action] = atom.literal if atom is not None else None
-        return self._occ[action]
+        return self._step_program().outcomes(state, action)
 
     def _read(self, sym: clingo.Symbol) -> tuple[str, int, str]:
-        """What a shown symbol says (`_meaning`), read once per solver."""
-        meaning = self._shown.get(sym)
-        if meaning is None:
-            meaning = self._shown[sym] = _meaning(sym)
-        return meaning
+        return _read(self._shown, sym)
 
     def _steps(
         self, symbols: Sequence[clingo.Symbol], *, steps_cost_only: bool
@@ -233,6 +247,16 @@ class BranchSolver:
         return SequentialPlan(steps, 0 in goals, steps_cost_only)
 
 
+def _read(
+    shown: dict[clingo.Symbol, tuple[str, int, str]], sym: clingo.Symbol
+) -> tuple[str, int, str]:
+    """What a shown symbol says (`_meaning`), read once per program."""
+    meaning = shown.get(sym)
+    if meaning is None:
+        meaning = shown[sym] = _meaning(sym)
+    return meaning
+
+
 def _meaning(sym: clingo.Symbol) -> tuple[str, int, str]:
     """(predicate, time, the fluent, action or outcome label as canonical text) of a
     shown atom; ("", 0, "") for atoms the planner does not read.
@@ -250,20 +274,23 @@ def _meaning(sym: clingo.Symbol) -> tuple[str, int, str]:
     return "", 0, ""
 
 
-def _externals(ctl: clingo.Control, name: str) -> dict[str, int]:
-    """External atoms `name(X)` by str(X), as solver literals, left open.
+def _externals(
+    ctl: clingo.Control, name: str, arity: int = 1, *, by_atom: bool = False
+) -> dict[str, int]:
+    """External atoms `name(X)` by str(X) (`by_atom`: by the atom's own text), as
+    solver literals, left open.
 
     Open (not fixed to false) so that assumptions alone set them: an external
     fixed to false would make an assumption of true UNSAT.
     """
     out = {}
-    for atom in ctl.symbolic_atoms.by_signature(name, 1):
+    for atom in ctl.symbolic_atoms.by_signature(name, arity):
         # (In a preprocessed program they are shown atoms standing for the
         # externals, not externals by name: `preprocessing.NAMED_EXTERNALS`.
         # Either way, every atom of the signature is one.)
         if not atom.is_fact:
             ctl.assign_external(atom.literal, None)
-            out[str(atom.symbol.arguments[0])] = atom.literal
+            out[str(atom.symbol if by_atom else atom.symbol.arguments[0])] = atom.literal
     return out
 
 

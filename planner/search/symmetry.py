@@ -172,7 +172,7 @@ class Symmetry:
         said: dict[tuple[int, int], list[str]] = {}
         rest: list[str] = []
         for fluent in state:
-            mention = self._mention(fluent)
+            mention = self.mention(fluent)
             if mention is None:
                 rest.append(fluent)
             elif mention is _CROSS:
@@ -198,7 +198,7 @@ class Symmetry:
 
     def rename(self, text: str, moves: dict[tuple[int, int], int]) -> str:
         """`text` with the parts of each member in `moves` named as the member it moves to."""
-        mention = self._mention(text)
+        mention = self.mention(text)
         if mention is None:
             return text
         if mention is _CROSS:
@@ -224,7 +224,9 @@ class Symmetry:
             self._filled[key] = text
         return text
 
-    def _mention(self, fluent: str) -> _Mention:
+    def mention(self, fluent: str) -> _Mention:
+        """The member a fluent names and its text with that member's parts as role
+        placeholders; None: it names none; (-1, -1, ""): it names two."""
         if fluent in self._mentions:
             return self._mentions[fluent]
         named: set[tuple[int, int]] = set()
