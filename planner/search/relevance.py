@@ -129,11 +129,11 @@ class Reduction:
 
 @dataclass(frozen=True)
 class _Kinds:
-    """The members of one class in a state: kept, finished, waiting by group."""
+    """The members of one class in a state: those kept, and the finished ones among
+    those left out (the others wait)."""
 
     kept: list[int]
     finished: dict[int, list[str]]  # member -> the points it blocks
-    waiting: dict[int, tuple[str, ...]]  # member -> its group
 
 
 class Relevance:
@@ -227,11 +227,9 @@ class Relevance:
                 groups.setdefault(group, []).append(m)
             else:
                 kept.append(m)
-        waits: dict[int, tuple[str, ...]] = {}
-        for group, members in groups.items():
+        for members in groups.values():
             kept.extend(members[:keep])
-            waits.update((m, group) for m in members[keep:])
-        return _Kinds(sorted(kept), finished, waits)
+        return _Kinds(sorted(kept), finished)
 
     def _finished(self, member: Member, fluents: list[str]) -> list[str] | None:
         """The points a finished member occupies outside itself; None: not finished."""
