@@ -59,7 +59,14 @@ def test_waiting_members_are_left_out_only_where_no_initiative_or_ban_is_left() 
     # Loose pairs beyond two of each class are left out (one odd, two even): counted
     # below the parts kept, and the shared region stays unsafe (dangerous feet).
     assert reduced.waiting == 3 and "unsafeElsewhere(shared)" in reduced.state
-    assert any(f.startswith("skippedBelow(") for f in reduced.state)
+    # Pairs 9, 6 and 8 are left out, every part of them loose and reached. Below leg2
+    # in id order lie their three feet (3 = bits 0 and 1); below leg7, kept as the
+    # odd class's last member leg9, the feet and leg6 (4 = bit 2); below foot7,
+    # kept as foot9, foot6 alone.
+    assert reduced.to_program["leg7"] == "leg9" and reduced.to_program["foot7"] == "foot9"
+    counts = {f for f in reduced.state if f.startswith("skippedBelow(")}
+    assert {"skippedBelow(leg2,0)", "skippedBelow(leg2,1)", "skippedBelow(leg9,2)"} <= counts
+    assert "skippedBelow(leg9,0)" not in counts and "skippedBelow(foot9,0)" in counts
     assert reduced.shape == (2, 2)  # two waiting pairs of each class kept
     # The human may still pick a part up: only finished pairs are left out.
     finished_4 = {"attached(leg4,top,c2)", "attached(foot4,leg4,foot)"}
