@@ -134,3 +134,24 @@ def test_states_of_a_real_plan_get_the_whole_programs_plans_without_members() ->
             mapped = None if found is None else reduced.actual_plan(found)
             assert _key(mapped) == _key(whole.plan(state)), sorted(state)
         assert len(programs) >= 2
+
+
+def test_the_branch_planner_leaves_members_out_and_gets_the_same_branch() -> None:
+    """The planning path itself: a history-free planner given the classes solves a
+    branch whose human has no initiative left on a program without members, and the
+    branch, outcomes included, is the one a planner without them finds."""
+    from dataclasses import replace
+
+    from planner.search.branch_planner import BranchPlanner, Problem
+
+    scenario = _declared("U", 10)
+    facts, reachable = _facts(scenario)
+    plain = Problem(tuple(facts), reachable, horizon=4, history_free=True, short_first=True)
+    members = Symmetry.of(facts, reachable).classes
+    start = frozenset({*FINISHED_3, *SPENT, "holding(left,leg1)"})
+    with_members = BranchPlanner(replace(plain, members=members))
+    found = with_members.branch(start, frozenset())
+    assert len(with_members._reduced) == 1  # one program without members, used
+    whole = BranchPlanner(plain).branch(start, frozenset())
+    assert found.steps is not None and found.steps == whole.steps
+    assert found.horizon == whole.horizon

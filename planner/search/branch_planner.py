@@ -241,8 +241,8 @@ class BranchPlanner:
             )
             if found is not None:
                 return reduced.actual_plan(found)
-        # (No plan without them is no plan with them either; the whole program says
-        # so, for the rare dead end.)
+        # A dead end, or a state that keeps every member: the whole program (a dead end
+        # without the members is one with them too, but it is rare, and proven here).
         return self.solver(horizon).plan(start, forbid)
 
     def _reduced_solver(self, horizon: int, shape: relevance.Shape) -> BranchSolver:

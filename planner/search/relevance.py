@@ -70,7 +70,7 @@ EXTERNALS = (
     ("delegableBelow", 1),
     ("unsafeElsewhere", 1),
 )
-_HELPERS = tuple(name if arity == 0 else f"{name}(" for name, arity in EXTERNALS)
+_HELPERS = tuple(f"{name}(" for name, _ in EXTERNALS)
 # How many members of each class a program keeps: a state keeps the next rung up
 # (of its class that keeps most), so that few programs serve every state. A state
 # that keeps more is solved on the whole program: at U30, programs keeping 8-12
@@ -277,7 +277,7 @@ class Relevance:
         said: dict[tuple[int, int], list[str]],
         kinds: list[_Kinds],
         shape: Shape,
-    ) -> Reduction | None:
+    ) -> Reduction:
         to_program: dict[str, str] = {}
         left_out: set[str] = set()
         helpers: set[str] = set()
@@ -299,7 +299,7 @@ class Relevance:
                 else:
                     waiting += 1
                     loose.extend(_loose(members[m], said.get((c, m), [])))
-        helpers.update(self._chain(to_program, state))
+        helpers.update(self._below(to_program, state))
         helpers.update(self._stand_ins(to_program, loose))
         kept_state = [substitute(f, to_program) for f in state - left_out]
         return Reduction(
@@ -344,7 +344,7 @@ class Relevance:
             and part not in self._dangerous
         )
 
-    def _chain(self, to_program: dict[str, str], state: State) -> list[str]:
+    def _below(self, to_program: dict[str, str], state: State) -> list[str]:
         """Which loose movable part lies below which in their own id order, under their
         program names (preferences.lp and commonsense.lp read id order between loose
         parts alone; the program's names are in another order)."""
